@@ -1,0 +1,220 @@
+#include "digilap/digitization.hpp"
+
+#include "digilap/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+namespace digilap {
+
+namespace {
+
+void check_step(double h) {
+  if (!(h > 0) || !std::isfinite(h)) {
+    std::ostringstream msg;
+    msg << "grid step h must be > 0 and finite, got " << h;
+    throw Error(msg.str());
+  }
+}
+
+// Sorts runs and merges the overlapping or touching ones.
+void normalize(std::vector<Run>& runs) {
+  runs.erase(std::remove_if(runs.begin(), runs.end(), [](const Run& r) { return r.end <= r.begin; }),
+             runs.end());
+  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (out > 0 && runs[k].begin <= runs[out - 1].end)
+      runs[out - 1].end = std::max(runs[out - 1].end, runs[k].end);
+    else
+      runs[out++] = runs[k];
+  }
+  runs.resize(out);
+}
+
+// One crossing of the curve with the line y = j h.
+struct Crossing {
+  std::int32_t row;
+  double x;
+};
+
+}  // namespace
+
+DigitalSet::DigitalSet(double h) : h_(h) { check_step(h); }
+
+const Run* DigitalSet::row_runs_begin(std::int32_t j) const {
+  if (j < row_begin() || j >= row_end()) return runs_.data();
+  return runs_.data() + row_offset_[j - row_begin_];
+}
+const Run* DigitalSet::row_runs_end(std::int32_t j) const {
+  if (j < row_begin() || j >= row_end()) return runs_.data();
+  return runs_.data() + row_offset_[j - row_begin_ + 1];
+}
+
+bool DigitalSet::contains(std::int32_t i, std::int32_t j) const {
+  const Run* b = row_runs_begin(j);
+  const Run* e = row_runs_end(j);
+  const Run* it = std::upper_bound(b, e, i, [](std::int32_t v, const Run& r) { return v < r.begin; });
+  return it != b && i < (it - 1)->end;
+}
+
+std::int64_t DigitalSet::pixel_count() const {
+  std::int64_t n = 0;
+  for (const Run& r : runs_) n += r.end - r.begin;
+  return n;
+}
+
+std::size_t DigitalSet::memory_bytes() const {
+  return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);
+}
+
+DigitalSet DigitalSet::from_rows(double h, std::int32_t row_begin, std::vector<std::vector<Run>> rows) {
+  DigitalSet set(h);
+  for (auto& r : rows) normalize(r);
+  // Drop empty rows at both ends so that row_begin()/row_end() are tight.
+  std::size_t first = 0, last = rows.size();
+  while (first < last && rows[first].empty()) ++first;
+  while (last > first && rows[last - 1].empty()) --last;
+  set.row_begin_ = row_begin + static_cast<std::int32_t>(first);
+  set.row_offset_.assign(1, 0);
+  for (std::size_t r = first; r < last; ++r) {
+    set.runs_.insert(set.runs_.end(), rows[r].begin(), rows[r].end());
+    set.row_offset_.push_back(static_cast<std::int64_t>(set.runs_.size()));
+  }
+  if (set.runs_.empty()) set.row_begin_ = 0, set.row_offset_.assign(1, 0);
+  return set;
+}
+
+DigitalSet DigitalSet::from_bitmap(double h, int width, int height, const std::vector<std::uint8_t>& bitmap,
+                                   std::int32_t col_offset, std::int32_t row_offset) {
+  if (width < 0 || height < 0 || bitmap.size() != static_cast<std::size_t>(width) * height)
+    throw Error("from_bitmap: the bitmap must hold width * height values");
+  std::vector<std::vector<Run>> rows(height);
+  for (int r = 0; r < height; ++r) {
+    const std::uint8_t* row = bitmap.data() + static_cast<std::size_t>(r) * width;
+    for (int c = 0; c < width;) {
+      if (!row[c]) { ++c; continue; }
+      int e = c;
+      while (e < width && row[e]) ++e;
+      rows[r].push_back({c + col_offset, e + col_offset});
+      c = e;
+    }
+  }
+  return from_rows(h, row_offset, std::move(rows));
+}
+
+DigitalSet DigitalSet::from_pixels(double h, const std::vector<Eigen::Vector2i>& pixels) {
+  if (pixels.empty()) return DigitalSet(h);
+  std::int32_t jmin = pixels[0].y(), jmax = pixels[0].y();
+  for (const auto& p : pixels) jmin = std::min(jmin, p.y()), jmax = std::max(jmax, p.y());
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(jmax) - jmin + 1);
+  for (const auto& p : pixels) rows[p.y() - jmin].push_back({p.x(), p.x() + 1});
+  return from_rows(h, jmin, std::move(rows));
+}
+
+// --- Gauss digitization of a shape ----------------------------------------------------------
+
+DigitalSet digitize(const Shape& shape, double h) {
+  check_step(h);
+  const Eigen::AlignedBox2d box = shape.bounding_box();
+  const double limit = 1e9;  // pixel indices must fit in 32 bits with room for neighbours
+  if (std::max(box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff()) / h > limit) {
+    std::ostringstream msg;
+    msg << "digitize: grid step h = " << h << " is too fine for this shape (pixel indices would "
+        << "exceed 1e9); use h >= " << std::max(box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff()) / limit;
+    throw Error(msg.str());
+  }
+
+  // 1. Split the curve into pieces on which y(theta) is monotone, at the roots of y'(theta).
+  const auto& th = shape.sample_parameters();
+  const std::size_t n = th.size();
+  const double two_pi = 2.0 * 3.14159265358979323846;
+  auto theta_at = [&](std::size_t k) { return k < n ? th[k] : th[k - n] + two_pi; };
+  const double theta_end = theta_at(0) + two_pi;
+  // The curve closes at theta = +-pi: evaluate the end as the start, so that both pieces that
+  // meet there see the same point (the two parameters round to different points otherwise).
+  auto at = [&](double t) { return shape.point(t >= theta_end ? theta_at(0) : t); };
+  auto dy = [&](double t) { return shape.derivative(t >= theta_end ? theta_at(0) : t).y(); };
+  std::vector<double> breaks{theta_at(0)};
+  for (std::size_t k = 0; k < n; ++k) {
+    double a = theta_at(k), b = theta_at(k + 1);
+    double fa = dy(a), fb = dy(b);
+    if ((fa > 0) == (fb > 0)) continue;
+    for (int it = 0; it < 60; ++it) {  // bisection to full precision: y' changes sign once here
+      const double m = 0.5 * (a + b);
+      if (m <= a || m >= b) break;
+      if ((dy(m) > 0) == (fa > 0)) a = m; else b = m;
+    }
+    breaks.push_back(0.5 * (a + b));
+  }
+  breaks.push_back(theta_end);
+
+  // 2. On each monotone piece, one crossing per row j with j h in [min y, max y).
+  std::vector<Crossing> crossings;
+  for (std::size_t p = 0; p + 1 < breaks.size(); ++p) {
+    const double ta = breaks[p], tb = breaks[p + 1];
+    if (!(tb > ta)) continue;
+    const double ya = at(ta).y(), yb = at(tb).y();
+    const double ylo = std::min(ya, yb), yhi = std::max(ya, yb);
+    const bool increasing = yb > ya;
+    auto j = static_cast<std::int64_t>(std::ceil(ylo / h));
+    while (static_cast<double>(j - 1) * h >= ylo) --j;
+    while (static_cast<double>(j) * h < ylo) ++j;
+    for (; static_cast<double>(j) * h < yhi; ++j) {
+      const double y0 = static_cast<double>(j) * h;
+      // Bracketed root of y(theta) - y0 on [ta, tb]: Newton steps, bisection when they leave.
+      double lo = ta, hi = tb;
+      double t = ta + (tb - ta) * (y0 - ya) / (yb - ya);
+      for (int it = 0; it < 100; ++it) {
+        const double f = at(t).y() - y0;
+        if (f == 0) break;
+        if ((f < 0) == increasing) lo = t; else hi = t;
+        const double d = dy(t);
+        double next = (d != 0) ? t - f / d : 0.5 * (lo + hi);
+        if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+        if (next == t || hi - lo <= 4 * std::numeric_limits<double>::epsilon() * std::abs(t)) { t = next; break; }
+        t = next;
+      }
+      crossings.push_back({static_cast<std::int32_t>(j), at(t).x()});
+    }
+  }
+  std::sort(crossings.begin(), crossings.end(), [](const Crossing& a, const Crossing& b) {
+    return a.row != b.row ? a.row < b.row : a.x < b.x;
+  });
+
+  // 3. Pair the crossings of each row (even-odd rule) into runs, each end checked exactly.
+  if (crossings.empty()) return DigitalSet(h);
+  const std::int32_t row0 = crossings.front().row;
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(crossings.back().row - row0) + 1);
+  auto in = [&](std::int64_t i, std::int64_t j) {
+    return shape.inside({static_cast<double>(i) * h, static_cast<double>(j) * h});
+  };
+  for (std::size_t c = 0; c < crossings.size();) {
+    std::size_t e = c;
+    while (e < crossings.size() && crossings[e].row == crossings[c].row) ++e;
+    const std::int32_t j = crossings[c].row;
+    if ((e - c) % 2 != 0) {
+      std::ostringstream msg;
+      msg << "digitize: the curve of '" << shape.name() << "' crosses the line y = " << j * h
+          << " an odd number of times: it is not a simple closed curve at this resolution";
+      throw Error(msg.str());
+    }
+    for (std::size_t k = c; k < e; k += 2) {
+      auto b = static_cast<std::int64_t>(std::floor(crossings[k].x / h)) + 1;
+      auto last = static_cast<std::int64_t>(std::ceil(crossings[k + 1].x / h)) - 1;
+      // The crossing and i h may round differently: one pixel of correction on each side.
+      if (b <= last && !in(b, j)) ++b;
+      else if (in(b - 1, j)) --b;
+      if (last >= b && !in(last, j)) --last;
+      else if (in(last + 1, j)) ++last;
+      if (b <= last)
+        rows[j - row0].push_back({static_cast<std::int32_t>(b), static_cast<std::int32_t>(last + 1)});
+    }
+    c = e;
+  }
+  return DigitalSet::from_rows(h, row0, std::move(rows));
+}
+
+}  // namespace digilap

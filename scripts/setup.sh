@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# Installs the Debian packages digilap needs, only those that are missing.
+set -euo pipefail
+packages=(g++ cmake make libeigen3-dev libspectra-dev libgtest-dev libbenchmark-dev libcli11-dev libstb-dev)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  exit 0
+fi
+echo "setup: installing ${missing[*]}" >&2
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+$SUDO apt-get update -qq
+DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
