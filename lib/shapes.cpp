@@ -63,6 +63,11 @@ double Shape::curvature(double theta) const {
 }
 bool Shape::inside(const Eigen::Vector2d& p) const { return local_inside(to_local(p)); }
 
+double Shape::radial_parameter(const Eigen::Vector2d& p) const {
+  const Eigen::Vector2d q = to_local(p);
+  return local_polar_parameter(std::atan2(q.y(), q.x()));
+}
+
 void Shape::set_pose(const Eigen::Vector2d& centre, double rotation) {
   if (!centre.allFinite() || !std::isfinite(rotation))
     throw Error("shape pose: centre and rotation must be finite numbers");
@@ -307,6 +312,11 @@ Eigen::Vector2d Ellipse::local_second_derivative(double t) const {
 bool Ellipse::local_inside(const Eigen::Vector2d& p) const {
   const double x = p.x() / a_, y = p.y() / b_;
   return x * x + y * y < 1.0;
+}
+
+double Ellipse::local_polar_parameter(double phi) const {
+  // (a cos t, b sin t) is in direction phi when tan(t) = (a / b) tan(phi).
+  return std::atan2(a_ * std::sin(phi), b_ * std::cos(phi));
 }
 
 // --- Factory ------------------------------------------------------------------------------

@@ -43,6 +43,10 @@ public:
   /// safeguarded Newton iteration on <gamma - p, gamma'> = 0 refines it to machine precision.
   double closest_parameter(const Eigen::Vector2d& p) const;
 
+  /// Parameter of the curve point seen from the centre in the direction of p (the radial
+  /// projection; the curves here are star-shaped around their centre).
+  double radial_parameter(const Eigen::Vector2d& p) const;
+
   /// Axis-aligned bounding box of the curve (from the dense sampling, padded by its error).
   Eigen::AlignedBox2d bounding_box() const { return bbox_; }
 
@@ -69,6 +73,8 @@ protected:
   virtual Eigen::Vector2d local_derivative(double theta) const = 0;
   virtual Eigen::Vector2d local_second_derivative(double theta) const = 0;
   virtual bool local_inside(const Eigen::Vector2d& p) const = 0;
+  /// Parameter of the curve point at polar angle phi in the shape's frame (phi itself for polar curves).
+  virtual double local_polar_parameter(double phi) const { return phi; }
 
 private:
   Eigen::Vector2d to_world(const Eigen::Vector2d& v) const;     // rotate + translate
@@ -134,6 +140,7 @@ protected:
   Eigen::Vector2d local_derivative(double theta) const override;
   Eigen::Vector2d local_second_derivative(double theta) const override;
   bool local_inside(const Eigen::Vector2d& p) const override;
+  double local_polar_parameter(double phi) const override;
 
 private:
   double a_, b_;

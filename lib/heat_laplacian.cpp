@@ -1,0 +1,383 @@
+#include "digilap/heat_laplacian.hpp"
+
+#include "digilap/error.hpp"
+#include "gaussian_kernel.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <sstream>
+
+namespace digilap {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// The elements of all contours, in row order, with what the assembly needs of them.
+struct Elements {
+  Eigen::MatrixX2d positions;
+  Eigen::VectorXd mu, s;
+  std::vector<Eigen::Index> offset{0};
+  std::vector<double> length;
+};
+
+Elements gather_elements(const ContourSet& contours, const Measures& measures, Placement placement) {
+  if (measures.contours.size() != contours.contours.size())
+    throw Error("heat_laplacian: measures are given for " + std::to_string(measures.contours.size()) +
+                " contours, but there are " + std::to_string(contours.contours.size()));
+  Elements e;
+  for (std::size_t c = 0; c < contours.contours.size(); ++c) {
+    if (static_cast<std::size_t>(measures.contours[c].linel_mu.size()) != contours.contours[c].size())
+      throw Error("heat_laplacian: the measures of contour " + std::to_string(c) + " do not match its size");
+    e.offset.push_back(e.offset.back() + static_cast<Eigen::Index>(contours.contours[c].size()));
+  }
+  const Eigen::Index n = e.offset.back();
+  e.positions.resize(n, 2);
+  e.mu.resize(n);
+  e.s.resize(n);
+  for (std::size_t c = 0; c < contours.contours.size(); ++c) {
+    const ContourMeasures& m = measures.contours[c];
+    e.length.push_back(m.length);
+    for (Eigen::Index i = 0; i < m.S.size(); ++i) {
+      const Eigen::Index r = e.offset[c] + i;
+      if (placement == Placement::Pointels) {
+        e.positions.row(r) = contours.pointel_position(c, i).transpose();
+        e.mu[r] = m.vertex_mu[i];
+        e.s[r] = m.S[i];
+      } else {
+        e.positions.row(r) = contours.linel_midpoint(c, i).transpose();
+        e.mu[r] = m.linel_mu[i];
+        e.s[r] = m.S[i] + 0.5 * m.linel_mu[i];  // SPEC §4: the midpoint of l_i along the contour
+      }
+    }
+  }
+  return e;
+}
+
+void check_positive(const char* what, double v) {
+  if (!(v > 0) || !std::isfinite(v)) {
+    std::ostringstream msg;
+    msg << "heat_laplacian: " << what << " must be > 0 and finite, got " << v;
+    throw Error(msg.str());
+  }
+}
+
+void check_memory(std::size_t nnz, std::size_t rows, double limit) {
+  const double bytes = heat_laplacian_bytes(nnz, rows);
+  if (bytes > limit) {
+    std::ostringstream msg;
+    msg << "heat_laplacian: the operator would take about " << bytes / 1e9 << " GB (" << nnz
+        << " nonzeros per matrix, " << rows << " rows), above the memory limit of " << limit / 1e9
+        << " GB; raise memory_limit_bytes, use a coarser h, or a smaller t or k";
+    throw Error(msg.str());
+  }
+}
+
+// Row neighbourhoods: for each row, the sorted columns of its off-diagonal neighbours and
+// their squared distances, written by the caller-specific `Pattern`.
+// Geodesic pattern: elements of one contour, a cyclic window [i - back, i + fwd].
+struct GeodesicWindow {
+  Eigen::Index back = 0, fwd = 0;
+};
+
+// Symmetric distance along a contour (SPEC §3): the same bits for (i, j) and (j, i).
+inline double cyclic_distance(double si, double sj, double P) {
+  const double d = std::abs(sj - si);
+  return std::min(d, P - d);
+}
+
+GeodesicWindow geodesic_window(const double* s, Eigen::Index n, Eigen::Index i, double P, double cut) {
+  GeodesicWindow w;
+  if (n <= 1) return w;
+  if (cut >= 0.5 * P) {  // the window covers the contour: every other element, once
+    w.fwd = n - 1;
+    return w;
+  }
+  // Forward offsets (s_j - s_i, + P after the wrap) grow with j: binary search the last one
+  // within the cut, then settle the boundary with the symmetric distance itself.
+  auto fwd_offset = [&](Eigen::Index m) {
+    const Eigen::Index j = i + m;
+    return j < n ? s[j] - s[i] : s[j - n] + P - s[i];
+  };
+  Eigen::Index lo = 0, hi = n - 1;  // invariant: offset(lo) <= cut (offset(0) = 0)
+  while (lo < hi) {
+    const Eigen::Index mid = (lo + hi + 1) / 2;
+    if (fwd_offset(mid) <= cut) lo = mid; else hi = mid - 1;
+  }
+  auto dist_fwd = [&](Eigen::Index m) { return cyclic_distance(s[i], s[(i + m) % n], P); };
+  while (lo > 0 && dist_fwd(lo) > cut) --lo;
+  while (lo + 1 <= n - 1 && dist_fwd(lo + 1) <= cut) ++lo;
+  w.fwd = lo;
+  auto back_offset = [&](Eigen::Index m) {
+    const Eigen::Index j = i - m;
+    return j >= 0 ? s[i] - s[j] : s[i] + P - s[j + n];
+  };
+  const Eigen::Index max_back = n - 1 - w.fwd;
+  lo = 0, hi = max_back;
+  while (lo < hi) {
+    const Eigen::Index mid = (lo + hi + 1) / 2;
+    if (back_offset(mid) <= cut) lo = mid; else hi = mid - 1;
+  }
+  auto dist_back = [&](Eigen::Index m) { return cyclic_distance(s[i], s[((i - m) % n + n) % n], P); };
+  while (lo > 0 && dist_back(lo) > cut) --lo;
+  while (lo + 1 <= max_back && dist_back(lo + 1) <= cut) ++lo;
+  w.back = lo;
+  return w;
+}
+
+// Uniform grid of cell size `cut` over the element positions, for the Euclidean neighbours.
+struct PointGrid {
+  double cell = 1.0;
+  Eigen::Vector2d origin;
+  Eigen::Index nx = 1, ny = 1;
+  std::vector<Eigen::Index> start, items;
+
+  PointGrid(const Eigen::MatrixX2d& p, double cut) {
+    const Eigen::Index n = p.rows();
+    origin = p.colwise().minCoeff().transpose();
+    const Eigen::Vector2d extent = p.colwise().maxCoeff().transpose() - origin;
+    cell = cut;
+    // At most ~4 n cells: a coarser grid for a tiny cut only costs more distance tests.
+    while ((extent.x() / cell + 1) * (extent.y() / cell + 1) > 4.0 * n + 16) cell *= 2;
+    nx = static_cast<Eigen::Index>(extent.x() / cell) + 1;
+    ny = static_cast<Eigen::Index>(extent.y() / cell) + 1;
+    start.assign(static_cast<std::size_t>(nx * ny + 1), 0);
+    for (Eigen::Index r = 0; r < n; ++r) ++start[cell_of(p(r, 0), p(r, 1)) + 1];
+    std::partial_sum(start.begin(), start.end(), start.begin());
+    items.resize(static_cast<std::size_t>(n));
+    std::vector<Eigen::Index> fill(start.begin(), start.end() - 1);
+    for (Eigen::Index r = 0; r < n; ++r) items[fill[cell_of(p(r, 0), p(r, 1))]++] = r;  // rows ascending per cell
+  }
+  Eigen::Index cell_x(double x) const { return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((x - origin.x()) / cell), 0, nx - 1); }
+  Eigen::Index cell_y(double y) const { return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((y - origin.y()) / cell), 0, ny - 1); }
+  Eigen::Index cell_of(double x, double y) const { return cell_y(y) * nx + cell_x(x); }
+
+  // Calls f(j, d2) for every j != i within distance cut of element i.
+  template <class F>
+  void for_neighbours(const Eigen::MatrixX2d& p, Eigen::Index i, double cut, F&& f) const {
+    const double xi = p(i, 0), yi = p(i, 1), cut2 = cut * cut;
+    const Eigen::Index cx = cell_x(xi), cy = cell_y(yi);
+    for (Eigen::Index y = std::max<Eigen::Index>(0, cy - 1); y <= std::min(ny - 1, cy + 1); ++y)
+      for (Eigen::Index x = std::max<Eigen::Index>(0, cx - 1); x <= std::min(nx - 1, cx + 1); ++x) {
+        const Eigen::Index c = y * nx + x;
+        for (Eigen::Index it = start[c]; it < start[c + 1]; ++it) {
+          const Eigen::Index j = items[it];
+          if (j == i) continue;
+          const double dx = p(j, 0) - xi, dy = p(j, 1) - yi;
+          const double d2 = dx * dx + dy * dy;
+          if (d2 <= cut2) f(j, d2);
+        }
+      }
+  }
+};
+
+// Allocates L and A with the given row sizes (off-diagonal counts + 1 for the diagonal).
+void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::Index>& row_nnz) {
+  m.resize(n, n);
+  m.resizeNonZeros(static_cast<Eigen::Index>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))));
+  int* outer = m.outerIndexPtr();
+  outer[0] = 0;
+  for (Eigen::Index r = 0; r < n; ++r) outer[r + 1] = outer[r] + static_cast<int>(row_nnz[r]);
+}
+
+// Fills row r of L and A from its sorted columns and squared distances (diagonal included
+// with d2 = 0 at its place). Off-diagonal L_rj = w(d) mu_j, A_rj = w(d) (mu_r mu_j); the
+// diagonals make every row sum to zero.
+void fill_row(SparseMatrix& L, SparseMatrix& A, Eigen::Index r, const Eigen::Index* cols, double* d2,
+              Eigen::Index count, const Eigen::VectorXd& mu, double inv_4t, double scale) {
+  const int begin = L.outerIndexPtr()[r];
+  int* lcol = L.innerIndexPtr() + begin;
+  int* acol = A.innerIndexPtr() + begin;
+  double* lval = L.valuePtr() + begin;
+  double* aval = A.valuePtr() + begin;
+  gaussian_weights(d2, count, inv_4t, scale);  // d2 now holds the weights w
+  const double mu_r = mu[r];
+  double lsum = 0, asum = 0;
+  Eigen::Index diag = 0;
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const Eigen::Index j = cols[k];
+    lcol[k] = acol[k] = static_cast<int>(j);
+    if (j == r) { diag = k; continue; }
+    const double l = d2[k] * mu[j], a = d2[k] * (mu_r * mu[j]);
+    lval[k] = l;
+    aval[k] = a;
+    lsum += l;
+    asum += a;
+  }
+  lval[diag] = -lsum;
+  aval[diag] = -asum;
+}
+
+}  // namespace
+
+std::pair<std::size_t, std::size_t> ContourOperator::element(Eigen::Index row) const {
+  if (row < 0 || row >= rows()) throw Error("ContourOperator::element: row out of range");
+  const auto it = std::upper_bound(row_offset.begin(), row_offset.end(), row);
+  const auto c = static_cast<std::size_t>(it - row_offset.begin() - 1);
+  return {c, static_cast<std::size_t>(row - row_offset[c])};
+}
+
+double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows) {
+  // L and A: values (8) + column indices (4) per nonzero, row offsets (4) per row; M: 12 per row;
+  // plus the element arrays (positions, mu, arclength: 32 per row).
+  return 2.0 * (12.0 * nonzeros + 4.0 * (rows + 1)) + 12.0 * rows + 32.0 * rows;
+}
+
+double heat_time(double h, const HeatLaplacianOptions& options) {
+  if (options.t != 0) {
+    check_positive("t", options.t);
+    return options.t;
+  }
+  check_positive("c_t", options.c_t);
+  return options.c_t * std::pow(h, 2.0 / 3.0);
+}
+
+ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measures,
+                               const HeatLaplacianOptions& options) {
+  const double t = heat_time(contours.h, options);
+  check_positive("k", options.k);
+  const double cut = options.k * std::sqrt(t);
+  const Elements e = gather_elements(contours, measures, options.placement);
+  const Eigen::Index n = e.offset.back();
+  const double inv_4t = 1.0 / (4.0 * t), scale = 1.0 / (t * std::sqrt(4.0 * kPi * t));
+
+  ContourOperator op;
+  op.placement = options.placement;
+  op.t = t;
+  op.cut = cut;
+  op.positions = e.positions;
+  op.mass = e.mu;
+  op.arclength = e.s;
+  op.row_offset = e.offset;
+  op.contour_length = e.length;
+
+  std::vector<Eigen::Index> row_nnz(static_cast<std::size_t>(n));
+  if (options.distance == DistanceMode::Geodesic) {
+    // Pass 1: each row's cyclic window, hence the exact pattern, before any allocation.
+    std::vector<GeodesicWindow> window(static_cast<std::size_t>(n));
+    for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
+      const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
+      const double P = e.length[c];
+#pragma omp parallel for schedule(static)
+      for (Eigen::Index i = 0; i < len; ++i) {
+        window[off + i] = geodesic_window(e.s.data() + off, len, i, P, cut);
+        row_nnz[off + i] = window[off + i].back + window[off + i].fwd + 1;
+      }
+    }
+    check_memory(static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))),
+                 static_cast<std::size_t>(n), options.memory_limit_bytes);
+    allocate(op.L, n, row_nnz);
+    allocate(op.A, n, row_nnz);
+    // Pass 2: fill the rows in parallel; columns of a cyclic window, rotated to be ascending.
+    for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
+      const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
+      const double P = e.length[c];
+      const double* s = e.s.data() + off;
+#pragma omp parallel
+      {
+        std::vector<Eigen::Index> cols;
+        std::vector<double> d2;
+#pragma omp for schedule(dynamic, 64)
+        for (Eigen::Index i = 0; i < len; ++i) {
+          const GeodesicWindow w = window[off + i];
+          const Eigen::Index count = w.back + w.fwd + 1;
+          cols.resize(static_cast<std::size_t>(count));
+          d2.resize(static_cast<std::size_t>(count));
+          const Eigen::Index first = ((i - w.back) % len + len) % len;
+          // Position in ascending order of the m-th element of the window (m = 0 at i - back).
+          const Eigen::Index wrap = (first + count > len) ? len - first : count;  // m where j wraps to 0
+          for (Eigen::Index m = 0; m < count; ++m) {
+            const Eigen::Index j = (first + m) % len;
+            const Eigen::Index pos = m < wrap ? m + (count - wrap) : m - wrap;
+            cols[pos] = off + j;
+            const double d = cyclic_distance(s[i], s[j], P);
+            d2[pos] = j == i ? 0.0 : d * d;
+          }
+          fill_row(op.L, op.A, off + i, cols.data(), d2.data(), count, e.mu, inv_4t, scale);
+        }
+      }
+    }
+  } else {
+    const PointGrid grid(e.positions, cut);
+#pragma omp parallel for schedule(dynamic, 256)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      Eigen::Index count = 1;
+      grid.for_neighbours(e.positions, i, cut, [&](Eigen::Index, double) { ++count; });
+      row_nnz[i] = count;
+    }
+    check_memory(static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))),
+                 static_cast<std::size_t>(n), options.memory_limit_bytes);
+    allocate(op.L, n, row_nnz);
+    allocate(op.A, n, row_nnz);
+#pragma omp parallel
+    {
+      std::vector<std::pair<Eigen::Index, double>> nb;
+      std::vector<Eigen::Index> cols;
+      std::vector<double> d2;
+#pragma omp for schedule(dynamic, 256)
+      for (Eigen::Index i = 0; i < n; ++i) {
+        nb.clear();
+        nb.emplace_back(i, 0.0);
+        grid.for_neighbours(e.positions, i, cut, [&](Eigen::Index j, double dd) { nb.emplace_back(j, dd); });
+        std::sort(nb.begin(), nb.end());
+        cols.resize(nb.size());
+        d2.resize(nb.size());
+        for (std::size_t k = 0; k < nb.size(); ++k) cols[k] = nb[k].first, d2[k] = nb[k].second;
+        fill_row(op.L, op.A, i, cols.data(), d2.data(), static_cast<Eigen::Index>(nb.size()), e.mu, inv_4t, scale);
+      }
+    }
+  }
+  op.M.resize(n, n);
+  op.M.reserve(Eigen::VectorXi::Ones(n));
+  for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = e.mu[r];
+  op.M.makeCompressed();
+  return op;
+}
+
+ContourOperator dec_laplacian(const ContourSet& contours, const Measures& measures, DecLengths lengths,
+                              std::size_t* clamped_lengths) {
+  const Elements e = gather_elements(contours, measures, Placement::Pointels);
+  const Eigen::Index n = e.offset.back();
+  const double floor_length = 1e-6 * contours.h;
+  std::size_t clamped = 0;
+  std::vector<Eigen::Triplet<double>> tl, ta;  // 3 entries per row: a triplet list is fine here
+  Eigen::VectorXd mass(n);
+  for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
+    const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
+    Eigen::VectorXd edge(len);  // length of linel l_i
+    for (Eigen::Index i = 0; i < len; ++i) {
+      edge[i] = lengths == DecLengths::Naive ? contours.h : measures.contours[c].linel_mu[i];
+      if (edge[i] < floor_length) edge[i] = floor_length, ++clamped;
+    }
+    for (Eigen::Index i = 0; i < len; ++i) {
+      const Eigen::Index r = off + i, ip = (i + len - 1) % len, in = (i + 1) % len;
+      const double wp = 1.0 / edge[ip], wn = 1.0 / edge[i];
+      mass[r] = 0.5 * (edge[ip] + edge[i]);
+      tl.emplace_back(r, off + ip, wp / mass[r]);
+      tl.emplace_back(r, off + in, wn / mass[r]);
+      tl.emplace_back(r, r, -(wp + wn) / mass[r]);
+      ta.emplace_back(r, off + ip, wp);
+      ta.emplace_back(r, off + in, wn);
+      ta.emplace_back(r, r, -(wp + wn));
+    }
+  }
+  ContourOperator op;
+  op.L.resize(n, n);
+  op.L.setFromTriplets(tl.begin(), tl.end());
+  op.A.resize(n, n);
+  op.A.setFromTriplets(ta.begin(), ta.end());
+  op.M.resize(n, n);
+  op.M.reserve(Eigen::VectorXi::Ones(n));
+  for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = mass[r];
+  op.M.makeCompressed();
+  op.mass = mass;
+  op.positions = e.positions;
+  op.arclength = e.s;
+  op.row_offset = e.offset;
+  op.contour_length = e.length;
+  if (clamped_lengths) *clamped_lengths = clamped;
+  return op;
+}
+
+}  // namespace digilap
