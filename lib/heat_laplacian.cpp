@@ -181,29 +181,27 @@ void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::Index>& 
   for (Eigen::Index r = 0; r < n; ++r) outer[r + 1] = outer[r] + static_cast<int>(row_nnz[r]);
 }
 
-// Fills row r of L and A from its sorted columns and squared distances (diagonal included
-// with d2 = 0 at its place). Off-diagonal L_rj = w(d) mu_j, A_rj = w(d) (mu_r mu_j); the
-// diagonals make every row sum to zero.
-void fill_row(SparseMatrix& L, SparseMatrix& A, Eigen::Index r, const Eigen::Index* cols, double* d2,
-              Eigen::Index count, const Eigen::VectorXd& mu, double inv_4t, double scale) {
-  const int begin = L.outerIndexPtr()[r];
-  int* lcol = L.innerIndexPtr() + begin;
-  int* acol = A.innerIndexPtr() + begin;
+// Row r of L and A, whose columns (ascending) are already in L's index slots and whose squared
+// distances are in L's value slots (0 on the diagonal, at position `diag`). Turns them into
+// L_rj = w(d) mu_j and A_rj = w(d) (mu_r mu_j) (the product mu_r mu_j is commutative, so A is
+// symmetric bit for bit), then sets the diagonals so that every row sums to zero.
+void finish_row(SparseMatrix& L, SparseMatrix& A, Eigen::Index r, Eigen::Index diag, const Eigen::VectorXd& mu,
+                double inv_4t, double scale) {
+  const int begin = L.outerIndexPtr()[r], count = L.outerIndexPtr()[r + 1] - begin;
+  const int* col = L.innerIndexPtr() + begin;
   double* lval = L.valuePtr() + begin;
   double* aval = A.valuePtr() + begin;
-  gaussian_weights(d2, count, inv_4t, scale);  // d2 now holds the weights w
+  std::copy(col, col + count, A.innerIndexPtr() + begin);
+  gaussian_weights(lval, count, inv_4t, scale);  // squared distances -> kernel weights
   const double mu_r = mu[r];
   double lsum = 0, asum = 0;
-  Eigen::Index diag = 0;
-  for (Eigen::Index k = 0; k < count; ++k) {
-    const Eigen::Index j = cols[k];
-    lcol[k] = acol[k] = static_cast<int>(j);
-    if (j == r) { diag = k; continue; }
-    const double l = d2[k] * mu[j], a = d2[k] * (mu_r * mu[j]);
-    lval[k] = l;
-    aval[k] = a;
-    lsum += l;
-    asum += a;
+  for (int k = 0; k < count; ++k) {
+    if (k == diag) continue;
+    const double w = lval[k], mu_j = mu[col[k]];
+    lval[k] = w * mu_j;
+    aval[k] = w * (mu_r * mu_j);
+    lsum += lval[k];
+    asum += aval[k];
   }
   lval[diag] = -lsum;
   aval[diag] = -asum;
@@ -274,28 +272,28 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
       const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
       const double P = e.length[c];
       const double* s = e.s.data() + off;
-#pragma omp parallel
-      {
-        std::vector<Eigen::Index> cols;
-        std::vector<double> d2;
-#pragma omp for schedule(dynamic, 64)
-        for (Eigen::Index i = 0; i < len; ++i) {
-          const GeodesicWindow w = window[off + i];
-          const Eigen::Index count = w.back + w.fwd + 1;
-          cols.resize(static_cast<std::size_t>(count));
-          d2.resize(static_cast<std::size_t>(count));
-          const Eigen::Index first = ((i - w.back) % len + len) % len;
-          // Position in ascending order of the m-th element of the window (m = 0 at i - back).
-          const Eigen::Index wrap = (first + count > len) ? len - first : count;  // m where j wraps to 0
-          for (Eigen::Index m = 0; m < count; ++m) {
-            const Eigen::Index j = (first + m) % len;
-            const Eigen::Index pos = m < wrap ? m + (count - wrap) : m - wrap;
-            cols[pos] = off + j;
+#pragma omp parallel for schedule(dynamic, 64)
+      for (Eigen::Index i = 0; i < len; ++i) {
+        const GeodesicWindow w = window[off + i];
+        const int begin = op.L.outerIndexPtr()[off + i];
+        int* col = op.L.innerIndexPtr() + begin;
+        double* d2 = op.L.valuePtr() + begin;
+        // The cyclic window [i - back, i + fwd] as at most two ascending runs of local indices:
+        // [0, i + fwd - len] after a wrap, then [i - back, ...] or the unwrapped window.
+        const Eigen::Index lo = i - w.back, hi = i + w.fwd;  // may leave [0, len)
+        Eigen::Index k = 0, diag = 0;
+        auto emit = [&](Eigen::Index a, Eigen::Index b) {  // local indices a..b inclusive
+          for (Eigen::Index j = a; j <= b; ++j, ++k) {
             const double d = cyclic_distance(s[i], s[j], P);
-            d2[pos] = j == i ? 0.0 : d * d;
+            col[k] = static_cast<int>(off + j);
+            d2[k] = d * d;
+            if (j == i) diag = k, d2[k] = 0.0;
           }
-          fill_row(op.L, op.A, off + i, cols.data(), d2.data(), count, e.mu, inv_4t, scale);
-        }
+        };
+        if (hi >= len) emit(0, hi - len);
+        emit(std::max<Eigen::Index>(lo, 0), std::min(hi, len - 1));
+        if (lo < 0) emit(lo + len, len - 1);
+        finish_row(op.L, op.A, off + i, diag, e.mu, inv_4t, scale);
       }
     }
   } else {
@@ -310,22 +308,25 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
                  static_cast<std::size_t>(n), options.memory_limit_bytes);
     allocate(op.L, n, row_nnz);
     allocate(op.A, n, row_nnz);
-#pragma omp parallel
-    {
-      std::vector<std::pair<Eigen::Index, double>> nb;
-      std::vector<Eigen::Index> cols;
-      std::vector<double> d2;
-#pragma omp for schedule(dynamic, 256)
-      for (Eigen::Index i = 0; i < n; ++i) {
-        nb.clear();
-        nb.emplace_back(i, 0.0);
-        grid.for_neighbours(e.positions, i, cut, [&](Eigen::Index j, double dd) { nb.emplace_back(j, dd); });
-        std::sort(nb.begin(), nb.end());
-        cols.resize(nb.size());
-        d2.resize(nb.size());
-        for (std::size_t k = 0; k < nb.size(); ++k) cols[k] = nb[k].first, d2[k] = nb[k].second;
-        fill_row(op.L, op.A, i, cols.data(), d2.data(), static_cast<Eigen::Index>(nb.size()), e.mu, inv_4t, scale);
+#pragma omp parallel for schedule(dynamic, 256)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      // Gather the columns straight into L's index slots, sort them (plain ints sort fast),
+      // then recompute the squared distances in column order (cheaper than sorting pairs).
+      const int begin = op.L.outerIndexPtr()[i], count = op.L.outerIndexPtr()[i + 1] - begin;
+      int* col = op.L.innerIndexPtr() + begin;
+      double* d2 = op.L.valuePtr() + begin;
+      int k = 0;
+      col[k++] = static_cast<int>(i);
+      grid.for_neighbours(e.positions, i, cut, [&](Eigen::Index j, double) { col[k++] = static_cast<int>(j); });
+      std::sort(col, col + count);
+      const double xi = e.positions(i, 0), yi = e.positions(i, 1);
+      Eigen::Index diag = 0;
+      for (k = 0; k < count; ++k) {
+        const double dx = e.positions(col[k], 0) - xi, dy = e.positions(col[k], 1) - yi;
+        d2[k] = dx * dx + dy * dy;  // same expression as the search: same bits, same decision
+        if (col[k] == i) diag = k;
       }
+      finish_row(op.L, op.A, i, diag, e.mu, inv_4t, scale);
     }
   }
   op.M.resize(n, n);

@@ -1,0 +1,58 @@
+// Shared by the command-line apps: options of the pipeline, stage timing, progress on stderr.
+#pragma once
+
+#include "digilap/digilap.hpp"
+
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <memory>
+#include <string>
+
+namespace digilap::app {
+
+/// Everything before the operator: which shape, at which h, with which normals.
+struct FrontEndOptions {
+  std::string shape = "flower";
+  double h = 0.01;
+  double k_R = 1.0;
+  std::string normals = "ii";  // "ii" (Integral Invariants) or "exact" (reference shapes only)
+};
+
+void add_front_end_options(CLI::App& app, FrontEndOptions& options, bool with_h = true);
+void add_operator_options(CLI::App& app, HeatLaplacianOptions& options);
+
+/// Progress and stage timing on stderr; silent with --quiet.
+class Progress {
+public:
+  explicit Progress(bool quiet) : quiet_(quiet) {}
+  bool quiet() const { return quiet_; }
+  /// Starts a stage ("normals"); finish() prints its time.
+  void start(const std::string& stage);
+  double finish();
+  /// A progress bar for long loops: "label [#####.....]  42%".
+  void bar(const std::string& label, double fraction);
+  void end_bar();
+
+private:
+  bool quiet_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point t0_;
+};
+
+struct FrontEnd {
+  std::unique_ptr<Shape> shape;
+  DigitalSet set;
+  ContourSet contours;
+  LinelNormals normals;
+  Measures measures;
+  double seconds_digitize = 0, seconds_contours = 0, seconds_normals = 0, seconds_measures = 0;
+};
+
+/// Shape -> digitization -> contours -> normals -> measures, timed stage by stage.
+FrontEnd run_front_end(const FrontEndOptions& options, double h, Progress& progress);
+
+/// Runs `body`, turning digilap::Error and std::exception into "error: ..." and exit code 1.
+int guarded_main(const std::function<int()>& body);
+
+}  // namespace digilap::app

@@ -1,0 +1,81 @@
+// Assembly throughput of the heat Laplacian against the memory-bandwidth ceiling.
+//
+// The ceiling is a plain parallel loop that allocates and writes exactly what the assembly
+// writes (L and A: values, column indices and row offsets) with no computation; the ratio
+// ceiling_time / assembly_time says how close the assembly is to the memory bandwidth.
+// Both are timed in the same process, best of several repetitions.
+#include "digilap/heat_laplacian.hpp"
+
+#include <CLI/CLI.hpp>
+#include <omp.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+using namespace digilap;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// Writes the same bytes as the assembly: two matrices of nnz values and indices, in rows.
+double ceiling_seconds(const SparseMatrix& pattern) {
+  const Eigen::Index n = pattern.rows();
+  const int* outer = pattern.outerIndexPtr();
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int m = 0; m < 2; ++m) {
+    std::unique_ptr<double[]> values(new double[pattern.nonZeros()]);
+    std::unique_ptr<int[]> index(new int[pattern.nonZeros()]);
+    std::unique_ptr<int[]> offsets(new int[n + 1]);
+#pragma omp parallel for schedule(dynamic, 64)
+    for (Eigen::Index r = 0; r < n; ++r) {
+      offsets[r] = outer[r];
+      for (int k = outer[r]; k < outer[r + 1]; ++k) values[k] = 1.0 + k, index[k] = static_cast<int>(k - outer[r]);
+    }
+    // Keep the writes observable.
+    if (values[pattern.nonZeros() / 2] < 0 || index[0] < 0 || offsets[0] < 0) std::printf("!");
+  }
+  return seconds_since(t0);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"Heat Laplacian assembly throughput vs the memory-bandwidth ceiling (flower)."};
+  std::vector<double> steps{0.002, 0.001};
+  int repetitions = 5;
+  app.add_option("--h", steps, "Grid steps")->capture_default_str();
+  app.add_option("--repetitions", repetitions, "Best of this many runs")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+
+  std::printf("| h | mode | threads | N | nnz | assembly (s) | Mnnz/s | ceiling (s) | ratio |\n");
+  std::printf("|---|---|---|---|---|---|---|---|---|\n");
+  Flower flower;
+  for (double h : steps) {
+    const DigitalSet set = digitize(flower, h);
+    const ContourSet cs = track_contours(set);
+    const Measures mu = measures(cs, ii_normals(set, cs));
+    for (auto mode : {DistanceMode::Geodesic, DistanceMode::Euclidean})
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        HeatLaplacianOptions o;
+        o.distance = mode;
+        double best = 1e300, best_ceiling = 1e300;
+        Eigen::Index nnz = 0, n = 0;
+        for (int r = 0; r < repetitions; ++r) {
+          const auto t0 = std::chrono::steady_clock::now();
+          const ContourOperator op = heat_laplacian(cs, mu, o);
+          best = std::min(best, seconds_since(t0));
+          nnz = op.L.nonZeros(), n = op.rows();
+          best_ceiling = std::min(best_ceiling, ceiling_seconds(op.L));
+        }
+        std::printf("| %g | %s | %d | %ld | %ld | %.4f | %.0f | %.4f | %.0f%% |\n", h,
+                    mode == DistanceMode::Geodesic ? "geodesic" : "euclidean", threads, static_cast<long>(n),
+                    static_cast<long>(nnz), best, nnz / best / 1e6, best_ceiling, 100 * best_ceiling / best);
+      }
+  }
+  return 0;
+}

@@ -1,0 +1,13 @@
+// digilap — everything at once: shape -> digitization -> contours -> normals -> measures ->
+// heat Laplacian -> files. Include the stage headers instead to keep builds lean.
+#pragma once
+
+#include "digilap/contour.hpp"
+#include "digilap/digitization.hpp"
+#include "digilap/error.hpp"
+#include "digilap/ground_truth.hpp"
+#include "digilap/heat_laplacian.hpp"
+#include "digilap/io.hpp"
+#include "digilap/measures.hpp"
+#include "digilap/normals.hpp"
+#include "digilap/shapes.hpp"
