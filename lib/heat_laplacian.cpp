@@ -233,6 +233,18 @@ double heat_time(double h, const HeatLaplacianOptions& options) {
 
 ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measures,
                                const HeatLaplacianOptions& options) {
+  if (options.richardson) {
+    // 2 L_{t/2} - L_t: the pattern of L_{t/2} (cut k sqrt(t/2)) is inside that of L_t.
+    HeatLaplacianOptions plain = options;
+    plain.richardson = false;
+    plain.t = heat_time(contours.h, options);
+    ContourOperator op = heat_laplacian(contours, measures, plain);
+    plain.t *= 0.5;
+    const ContourOperator half = heat_laplacian(contours, measures, plain);
+    op.L = 2.0 * half.L - op.L;
+    op.A = 2.0 * half.A - op.A;
+    return op;
+  }
   const double t = heat_time(contours.h, options);
   check_positive("k", options.k);
   const double cut = options.k * std::sqrt(t);

@@ -11,3 +11,7 @@
 #include "digilap/measures.hpp"
 #include "digilap/normals.hpp"
 #include "digilap/shapes.hpp"
+#include "digilap/convergence.hpp"
+#include "digilap/spectrum.hpp"
+#include "digilap/heat_flow.hpp"
+#include "digilap/smoothing.hpp"

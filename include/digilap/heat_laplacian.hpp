@@ -45,6 +45,12 @@ struct HeatLaplacianOptions {
   double k = 6.0;
   DistanceMode distance = DistanceMode::Geodesic;
   Placement placement = Placement::Pointels;
+  /// Richardson extrapolation 2 L_{t/2} - L_t: cancels the O(t) bias of the heat kernel (which
+  /// shrinks omega^2 to (1 - exp(-omega^2 t)) / t), so functions with large second derivatives
+  /// gain accuracy (docs/accuracy.md). It loses the sign pattern (some off-diagonal entries are
+  /// negative) and with it the guarantee that A is negative semidefinite: keep it off for heat
+  /// flow and spectra.
+  bool richardson = false;
   /// Refuse to allocate the matrices if their estimated size exceeds this (bytes).
   double memory_limit_bytes = 8.0 * 1024 * 1024 * 1024;
 };

@@ -1,0 +1,63 @@
+// digilap — heat diffusion du/dtau = L u on the contours, with the pair (A, M) (SPEC §4).
+//
+// Time stepping solves M u_{n+1} - theta dt A u_{n+1} = M u_n + (1 - theta) dt A u_n,
+// theta = 1 (implicit Euler, first order, monotone) or 1/2 (Crank-Nicolson, second order).
+// The matrix M - theta dt A is symmetric positive definite: it is factorized once (sparse
+// LDL^T) in the constructor and reused by every step, as geometry-central's solvers do.
+//
+// Elements of measure mu = 0 (possible on noisy contours, SPEC §4) have no equation in the
+// pair (A, M): their rows and columns of A vanish. Built from a ContourOperator, the flow
+// gives them their own row of L instead, du_i/dtau = (L u)_i, stepped with the same scheme
+// once the others are known (they do not influence the others, having no mass).
+#pragma once
+
+#include "digilap/heat_laplacian.hpp"
+#include "digilap/spectrum.hpp"
+
+#include <Eigen/Core>
+#include <Eigen/SparseCholesky>
+
+namespace digilap {
+
+enum class TimeScheme { ImplicitEuler, CrankNicolson };
+
+class HeatFlow {
+public:
+  /// From the pair (A, M). Throws digilap::Error for dt not > 0 and finite, mismatched sizes,
+  /// a mass that is not > 0 (use the ContourOperator constructor), or a failed factorization
+  /// (A not negative semidefinite).
+  HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme = TimeScheme::CrankNicolson);
+  /// From an operator; handles elements of zero measure through L (see above).
+  HeatFlow(const ContourOperator& op, double dt, TimeScheme scheme = TimeScheme::CrankNicolson);
+
+  double dt() const { return dt_; }
+  /// One step from u.
+  Eigen::VectorXd step(const Eigen::VectorXd& u) const;
+  /// `steps` steps from u0, i.e. to time steps * dt.
+  Eigen::VectorXd advance(const Eigen::VectorXd& u0, int steps) const;
+
+private:
+  using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
+  void factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme);
+  ColMatrix rhs_;  // M + (1 - theta) dt A
+  Eigen::SimplicialLDLT<ColMatrix> solver_;
+  double dt_;
+  double theta_ = 0.5;
+  std::vector<Eigen::Index> massless_;  // rows of zero measure, stepped with their row of L
+  SparseMatrix L_massless_;             // those rows of L
+};
+
+/// exp(tau L) u0 through a set of eigenpairs (M-orthonormal): sum_k exp(-lambda_k tau)
+/// phi_k phi_k^T M u0. Exact for the components the eigenpairs span.
+Eigen::VectorXd heat_flow_spectral(const Spectrum& spectrum, const Eigen::VectorXd& mass,
+                                   const Eigen::VectorXd& u0, double tau);
+
+/// exp(tau L) u0 exactly, from the dense generalized eigendecomposition of (-A, M): O(N^3),
+/// for reference on small problems. Throws digilap::Error above N = 5000.
+Eigen::VectorXd heat_flow_dense(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::VectorXd& u0,
+                                double tau);
+
+/// Amplitude of u along the mode phi in the M inner product: <u, phi>_M / <phi, phi>_M.
+double modal_amplitude(const Eigen::VectorXd& u, const Eigen::VectorXd& phi, const Eigen::VectorXd& mass);
+
+}  // namespace digilap

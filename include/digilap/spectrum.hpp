@@ -1,0 +1,43 @@
+// digilap — the smallest eigenpairs of the operator through Spectra (SPEC §4, §5).
+//
+// Solves the generalized problem  -A x = lambda M x  (A = M L symmetric negative semidefinite,
+// M = diag(mu)) for its smallest eigenvalues, ascending, by Lanczos in shift-and-invert mode
+// with a sparse Cholesky (LDL^T) factorization of -A - sigma M, sigma slightly negative.
+// Eigenvectors are M-orthonormal: x_i^T M x_j = delta_ij. Each closed contour contributes
+// one eigenvalue 0 (its constant vector).
+#pragma once
+
+#include "digilap/heat_laplacian.hpp"
+
+#include <Eigen/Core>
+
+namespace digilap {
+
+struct SpectrumOptions {
+  int count = 10;            ///< number of eigenpairs (smallest first)
+  int max_iterations = 1000; ///< Lanczos restarts allowed
+  double tolerance = 1e-10;  ///< relative tolerance on the Ritz values
+  int subspace = 0;          ///< Krylov subspace size; 0 = max(2 count + 1, 20), capped at N
+};
+
+struct Spectrum {
+  Eigen::VectorXd eigenvalues;   ///< ascending
+  Eigen::MatrixXd eigenvectors;  ///< one M-normalized column per eigenvalue
+  int iterations = 0;            ///< Lanczos restarts used
+  int operations = 0;            ///< applications of the shift-inverted operator
+};
+
+/// The `count` smallest eigenpairs of -A x = lambda M x. Throws digilap::Error when a mass is
+/// not > 0 (M must be definite: use pointels, or a smaller k_R), when count is not in
+/// [1, N - 1], or when Spectra does not converge (the message says how many did, and what to
+/// try: more iterations, a larger subspace).
+Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& options = {});
+
+/// Convenience: from an operator (uses op.A and op.mass).
+Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options = {});
+
+/// The heat-kernel operator's eigenvalues on a closed curve of length P with heat time t:
+/// (1 - exp(-omega^2 t)) / t, omega = 2 pi m / P (SPEC §5). With t = 0: omega^2 exactly.
+double heat_kernel_eigenvalue(int m, double P, double t);
+
+}  // namespace digilap

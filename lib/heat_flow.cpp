@@ -1,0 +1,113 @@
+#include "digilap/heat_flow.hpp"
+
+#include "digilap/error.hpp"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <sstream>
+
+namespace digilap {
+
+namespace {
+void check_step(double dt) {
+  if (!(dt > 0) || !std::isfinite(dt)) {
+    std::ostringstream msg;
+    msg << "HeatFlow: the time step dt must be > 0 and finite, got " << dt;
+    throw Error(msg.str());
+  }
+}
+}  // namespace
+
+HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme) : dt_(dt) {
+  check_step(dt);
+  for (Eigen::Index i = 0; i < mass.size(); ++i)
+    if (!(mass[i] > 0))
+      throw Error("HeatFlow: the mass of row " + std::to_string(i) +
+                  " is not > 0; build the flow from the ContourOperator, which handles zero measures");
+  factorize(A, mass, scheme);
+}
+
+HeatFlow::HeatFlow(const ContourOperator& op, double dt, TimeScheme scheme) : dt_(dt) {
+  check_step(dt);
+  for (Eigen::Index i = 0; i < op.mass.size(); ++i)
+    if (!(op.mass[i] > 0)) massless_.push_back(i);
+  factorize(op.A, op.mass, scheme);
+  if (!massless_.empty()) {
+    L_massless_.resize(static_cast<Eigen::Index>(massless_.size()), op.rows());
+    for (std::size_t k = 0; k < massless_.size(); ++k) L_massless_.row(static_cast<Eigen::Index>(k)) = op.L.row(massless_[k]);
+  }
+}
+
+void HeatFlow::factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme) {
+  if (A.rows() != mass.size() || A.cols() != mass.size())
+    throw Error("HeatFlow: A and the masses have different sizes");
+  theta_ = scheme == TimeScheme::ImplicitEuler ? 1.0 : 0.5;
+  ColMatrix M(mass.size(), mass.size());
+  M.reserve(Eigen::VectorXi::Ones(mass.size()));
+  // A massless row and column of M - theta dt A vanish: put 1 on its diagonal, which decouples
+  // it (its value is then set from L in step()).
+  for (Eigen::Index i = 0; i < mass.size(); ++i) M.insert(i, i) = mass[i] > 0 ? mass[i] : 0.0;
+  const ColMatrix Ac = A;
+  ColMatrix lhs = M - (theta_ * dt_) * Ac;
+  for (Eigen::Index i : massless_) lhs.coeffRef(i, i) = 1.0;
+  rhs_ = M + ((1.0 - theta_) * dt_) * Ac;
+  solver_.compute(lhs);
+  if (solver_.info() != Eigen::Success)
+    throw Error("HeatFlow: the factorization of M - theta dt A failed (A must be negative semidefinite and M >= 0)");
+}
+
+Eigen::VectorXd HeatFlow::step(const Eigen::VectorXd& u) const {
+  if (u.size() != rhs_.rows()) throw Error("HeatFlow::step: the vector has the wrong size");
+  Eigen::VectorXd next = solver_.solve(rhs_ * u);
+  if (!massless_.empty()) {
+    // u_i' (1 - theta dt L_ii) = u_i + dt ((1 - theta) (L u)_i + theta sum_{j != i} L_ij u_j'),
+    // where the u_j' with L_ij != 0 all have mass (L_ij = w mu_j) and are already known.
+    const Eigen::VectorXd Lu = L_massless_ * u;
+    for (std::size_t k = 0; k < massless_.size(); ++k) next[massless_[k]] = 0.0;
+    const Eigen::VectorXd Lnext = L_massless_ * next;
+    for (std::size_t k = 0; k < massless_.size(); ++k) {
+      const Eigen::Index i = massless_[k];
+      const double lii = L_massless_.coeff(static_cast<Eigen::Index>(k), i);
+      next[i] = (u[i] + dt_ * ((1 - theta_) * Lu[static_cast<Eigen::Index>(k)] + theta_ * Lnext[static_cast<Eigen::Index>(k)])) /
+                (1 - theta_ * dt_ * lii);
+    }
+  }
+  return next;
+}
+
+Eigen::VectorXd HeatFlow::advance(const Eigen::VectorXd& u0, int steps) const {
+  if (steps < 0) throw Error("HeatFlow::advance: steps must be >= 0");
+  Eigen::VectorXd u = u0;
+  for (int s = 0; s < steps; ++s) u = step(u);
+  return u;
+}
+
+Eigen::VectorXd heat_flow_spectral(const Spectrum& spectrum, const Eigen::VectorXd& mass, const Eigen::VectorXd& u0,
+                                   double tau) {
+  if (u0.size() != mass.size() || spectrum.eigenvectors.rows() != mass.size())
+    throw Error("heat_flow_spectral: sizes do not match");
+  const Eigen::VectorXd coefficients = spectrum.eigenvectors.transpose() * mass.cwiseProduct(u0);
+  const Eigen::VectorXd decay = (-tau * spectrum.eigenvalues.array()).exp();
+  return spectrum.eigenvectors * coefficients.cwiseProduct(decay);
+}
+
+Eigen::VectorXd heat_flow_dense(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::VectorXd& u0,
+                                double tau) {
+  const Eigen::Index n = mass.size();
+  if (n > 5000) throw Error("heat_flow_dense: N = " + std::to_string(n) + " is above 5000 (O(N^3)); use HeatFlow");
+  if (u0.size() != n || A.rows() != n) throw Error("heat_flow_dense: sizes do not match");
+  const Eigen::MatrixXd K = -Eigen::MatrixXd(A);
+  const Eigen::MatrixXd M = mass.asDiagonal();
+  Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(K, M);
+  if (eig.info() != Eigen::Success) throw Error("heat_flow_dense: the eigendecomposition failed");
+  const Eigen::MatrixXd& V = eig.eigenvectors();  // M-orthonormal
+  const Eigen::VectorXd c = V.transpose() * mass.cwiseProduct(u0);
+  return V * c.cwiseProduct((-tau * eig.eigenvalues().array()).exp().matrix());
+}
+
+double modal_amplitude(const Eigen::VectorXd& u, const Eigen::VectorXd& phi, const Eigen::VectorXd& mass) {
+  return u.dot(mass.cwiseProduct(phi)) / phi.dot(mass.cwiseProduct(phi));
+}
+
+}  // namespace digilap

@@ -1,0 +1,74 @@
+// Heat flow: decay of the first mode against exp(-(2 pi / P)^2 tau); schemes compared.
+#include "digilap/error.hpp"
+#include "digilap/ground_truth.hpp"
+#include "digilap/heat_flow.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+using namespace digilap;
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+struct FlowSetup {
+  ContourOperator op;
+  Eigen::VectorXd u0;
+};
+FlowSetup flower_cosine(double h) {
+  Flower flower;
+  const DigitalSet set = digitize(flower, h);
+  const ContourSet cs = track_contours(set);
+  FlowSetup s{heat_laplacian(cs, measures(cs, ii_normals(set, cs))), {}};
+  s.u0 = sample_values(flower, intrinsic_cosine(1), sample_parameters(flower, s.op.positions));
+  return s;
+}
+}  // namespace
+
+TEST(HeatFlow, FirstModeDecaysAsTheExactExponential) {
+  Flower flower;
+  const FlowSetup s = flower_cosine(0.01);
+  const double tau = 0.5, exact = std::exp(-std::pow(2 * kPi / flower.length(), 2) * tau);
+  const Eigen::VectorXd euler = HeatFlow(s.op, tau / 100, TimeScheme::ImplicitEuler).advance(s.u0, 100);
+  const Eigen::VectorXd cn = HeatFlow(s.op, tau / 100, TimeScheme::CrankNicolson).advance(s.u0, 100);
+  const double a_euler = modal_amplitude(euler, s.u0, s.op.mass), a_cn = modal_amplitude(cn, s.u0, s.op.mass);
+  EXPECT_NEAR(a_euler, exact, 0.02 * exact);
+  EXPECT_NEAR(a_cn, exact, 0.02 * exact);
+  std::printf("flower h = 0.01, amplitude after tau = 0.5: exact %.6f, Euler %.6f, Crank-Nicolson %.6f\n", exact,
+              a_euler, a_cn);
+}
+
+TEST(HeatFlow, CrankNicolsonIsCloserToTheExactFlowThanEuler) {
+  // Against exp(tau L) u0 of the same discrete operator (dense, N = 1052): the time error alone.
+  const FlowSetup s = flower_cosine(0.02);
+  const double tau = 0.5;
+  const Eigen::VectorXd euler = HeatFlow(s.op, tau / 100, TimeScheme::ImplicitEuler).advance(s.u0, 100);
+  const Eigen::VectorXd cn = HeatFlow(s.op, tau / 100, TimeScheme::CrankNicolson).advance(s.u0, 100);
+  const Eigen::VectorXd reference = heat_flow_dense(s.op.A, s.op.mass, s.u0, tau);
+  const double e_euler = (euler - reference).cwiseAbs().maxCoeff(), e_cn = (cn - reference).cwiseAbs().maxCoeff();
+  // First order vs second order in dt = 5e-3: CN is orders of magnitude closer.
+  EXPECT_LT(e_cn, 0.01 * e_euler);
+  std::printf("max deviation from exp(tau L) u0: Euler %.2e, Crank-Nicolson %.2e\n", e_euler, e_cn);
+}
+
+TEST(HeatFlow, SpectralFlowMatchesDenseFlowOnTheModesItSpans) {
+  const FlowSetup s = flower_cosine(0.02);
+  const Spectrum sp = smallest_eigenpairs(s.op, {12});
+  // u0 = a combination of the computed modes: exact through the eigenbasis.
+  const Eigen::VectorXd u0 = sp.eigenvectors.col(1) + 0.5 * sp.eigenvectors.col(4) - 0.2 * sp.eigenvectors.col(9);
+  const Eigen::VectorXd a = heat_flow_spectral(sp, s.op.mass, u0, 0.3);
+  const Eigen::VectorXd b = heat_flow_dense(s.op.A, s.op.mass, u0, 0.3);
+  EXPECT_LE((a - b).cwiseAbs().maxCoeff(), 1e-8 * u0.cwiseAbs().maxCoeff());
+}
+
+TEST(HeatFlow, ConservesTheTotalHeatAndRefusesBadSteps) {
+  const FlowSetup s = flower_cosine(0.02);
+  const Eigen::VectorXd bump = (s.op.positions.col(0).array() > 1.5).cast<double>();
+  const Eigen::VectorXd u = HeatFlow(s.op, 0.01).advance(bump, 20);
+  // Rows of A sum to zero, so M u is conserved: 1^T M u_{n+1} = 1^T M u_n.
+  EXPECT_NEAR(s.op.mass.dot(u), s.op.mass.dot(bump), 1e-12 * s.op.mass.dot(bump));
+  EXPECT_LE(u.maxCoeff(), 1.0 + 1e-12);  // maximum principle (nonnegative weights)
+  EXPECT_THROW(HeatFlow(s.op, 0.0), Error);
+  EXPECT_THROW(HeatFlow(s.op, -1.0), Error);
+  EXPECT_THROW(HeatFlow(s.op, std::nan("")), Error);
+}
