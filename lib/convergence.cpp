@@ -92,9 +92,10 @@ ConvergenceResult convergence_sweep(const Shape& shape, const TestFunction& f, c
     for (const auto& v : o.variants) {
       const Measures& mu = v.exact_normals ? mu_exact : mu_ii;
       t0 = std::chrono::steady_clock::now();
-      ContourOperator op;
-      if (v.kind == OperatorVariant::Kind::Heat) op = heat_laplacian(contours, mu, v.heat);
-      else op = dec_laplacian(contours, mu, v.kind == OperatorVariant::Kind::DecNaive ? DecLengths::Naive : DecLengths::Corrected);
+      const ContourOperator op =  // one expression: the operator is elided, never copied
+          v.kind == OperatorVariant::Kind::Heat
+              ? heat_laplacian(contours, mu, v.heat)
+              : dec_laplacian(contours, mu, v.kind == OperatorVariant::Kind::DecNaive ? DecLengths::Naive : DecLengths::Corrected);
       ConvergenceRow row;
       row.seconds_assembly = seconds_since(t0);
       t0 = std::chrono::steady_clock::now();

@@ -1,0 +1,91 @@
+// digilap-spectrum: the smallest eigenvalues and eigenvectors of the digital Laplace-Beltrami
+// operator, against the exact spectrum of the curve and the heat-kernel formula.
+#include "../common/app_common.hpp"
+#include "../common/svg_contour.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
+using namespace digilap;
+
+int main(int argc, char** argv) {
+  CLI::App app{"digilap-spectrum: smallest eigenpairs of -A x = lambda M x (Spectra, shift-and-invert).\n"
+               "Writes <out>/eigenvalues.csv, <out>/eigenvectors.csv and <out>/eigenvectors.svg."};
+  app::FrontEndOptions fe_options;
+  HeatLaplacianOptions op_options;
+  SpectrumOptions spectrum_options;
+  spectrum_options.count = 11;
+  std::string out_dir = "out/spectrum";
+  int draw = 8;
+  bool quiet = false;
+  app::add_front_end_options(app, fe_options);
+  app::add_operator_options(app, op_options);
+  app.add_option("--count", spectrum_options.count, "Number of eigenpairs")->capture_default_str();
+  app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
+  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
+  app.add_flag("--quiet,-q", quiet, "No progress on stderr");
+  CLI11_PARSE(app, argc, argv);
+
+  return app::guarded_main([&] {
+    app::Progress progress(quiet);
+    const app::FrontEnd fe = app::run_front_end(fe_options, fe_options.h, progress);
+    progress.start("operator");
+    const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
+    progress.finish();
+    progress.start("eigenpairs");
+    const Spectrum s = smallest_eigenpairs(op, spectrum_options);
+    progress.finish();
+
+    const double P = fe.shape->length(), P_est = fe.measures.total_length();
+    std::printf("# %s, h = %g, N = %ld, t = %.4g, P = %.8g (estimated %.8g), %d Lanczos restarts, %d solves\n",
+                fe.shape->name().c_str(), fe_options.h, static_cast<long>(op.rows()), op.t, P, P_est, s.iterations,
+                s.operations);
+    std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | pair split |\n");
+    std::printf("|---|---|---|---|---|---|---|---|\n");
+    std::filesystem::create_directories(out_dir);
+    const std::string values_path = out_dir + "/eigenvalues.csv", vectors_path = out_dir + "/eigenvectors.csv",
+                      svg_path = out_dir + "/eigenvectors.svg";
+    std::ofstream values(values_path);
+    if (!values) throw Error("cannot write '" + values_path + "'");
+    values << "k,m,lambda,exact,heat_kernel_formula\n";
+    values.precision(15);
+    for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
+      const int m = static_cast<int>((k + 1) / 2);
+      const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, op.t);
+      const double lambda = s.eigenvalues[k];
+      const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
+      char split[32] = "";
+      if (second_of_pair) std::snprintf(split, sizeof split, "%.1e", std::abs(lambda - s.eigenvalues[k - 1]) / lambda);
+      if (m == 0)
+        std::printf("| %ld | 0 | %.3e | 0 | | 0 | | |\n", static_cast<long>(k), lambda);
+      else
+        std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %s |\n", static_cast<long>(k), m, lambda, exact,
+                    lambda / exact - 1, formula, lambda / formula - 1, split);
+      values << k << ',' << m << ',' << lambda << ',' << exact << ',' << formula << '\n';
+    }
+    std::ofstream vectors(vectors_path);
+    if (!vectors) throw Error("cannot write '" + vectors_path + "'");
+    vectors << "row,x,y,s";
+    for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ",phi_" << k;
+    vectors << '\n';
+    vectors.precision(12);
+    for (Eigen::Index r = 0; r < op.rows(); ++r) {
+      vectors << r << ',' << op.positions(r, 0) << ',' << op.positions(r, 1) << ',' << op.arclength[r];
+      for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ',' << s.eigenvectors(r, k);
+      vectors << '\n';
+    }
+    std::vector<app::ContourPanel> panels;
+    for (Eigen::Index k = 1; k < s.eigenvalues.size() && static_cast<int>(panels.size()) < draw; ++k) {
+      char title[64];
+      std::snprintf(title, sizeof title, "phi_%ld, lambda = %.4g", static_cast<long>(k), s.eigenvalues[k]);
+      panels.push_back({title, s.eigenvectors.col(k)});
+    }
+    if (!panels.empty())
+      app::save_contour_panels(svg_path, op.positions, op.row_offset, panels, 4,
+                               "Eigenvectors of the digital Laplace-Beltrami operator, " + fe.shape->name());
+    std::printf("\nwrote %s\nwrote %s\nwrote %s\n", values_path.c_str(), vectors_path.c_str(), svg_path.c_str());
+    return 0;
+  });
+}
