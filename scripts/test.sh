@@ -3,5 +3,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/build.sh
+./scripts/fetch_test_data.sh
 cd build
 ctest --output-on-failure -j"$(nproc)"

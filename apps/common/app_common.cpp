@@ -1,17 +1,42 @@
 #include "app_common.hpp"
 
+#include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <map>
 
 namespace digilap::app {
 
+namespace {
+// A number that must be > 0 and finite (NaN and infinities spelled out are refused too).
+const CLI::Validator kPositiveFinite(
+    [](std::string& text) {
+      double v = 0;
+      try {
+        v = std::stod(text);
+      } catch (...) {
+        return std::string("must be a number, got '") + text + "'";
+      }
+      if (!(v > 0) || !std::isfinite(v)) return std::string("must be > 0 and finite, got ") + text;
+      return std::string();
+    },
+    "POSITIVE");
+}  // namespace
+
 void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   std::string names;
   for (const auto& n : shape_names()) names += (names.empty() ? "" : ", ") + n;
   app.add_option("--shape", o.shape, "Reference shape: " + names)->capture_default_str();
-  if (with_h) app.add_option("--h", o.h, "Grid step h")->capture_default_str();
-  app.add_option("--kR", o.k_R, "II radius constant: R = kR * h^(1/3)")->capture_default_str();
+  app.add_option("--image", o.image, "Binary image instead of a shape: PBM, PGM (8/16 bit) or PNG");
+  if (with_h)
+    app.add_option("--h", o.h, "Grid step h (default: 0.01 for shapes, 1/max(width, height) for images)")
+        ->check(kPositiveFinite);
+  app.add_option("--threshold", o.threshold, "Images: foreground = value < threshold * maxval")->capture_default_str();
+  app.add_flag("--invert", o.invert, "Images: foreground = value >= threshold * maxval (light objects)");
+  app.add_flag("--largest", o.largest, "Images: keep the largest contour only");
+  app.add_option("--min-linels", o.min_linels, "Images: drop contours with fewer linels")->capture_default_str();
+  app.add_option("--kR", o.k_R, "II radius constant: R = kR * h^(1/3)")->check(kPositiveFinite)->capture_default_str();
   app.add_option("--normals", o.normals, "Normals for the measures: ii (estimated) or exact (from the curve)")
       ->check(CLI::IsMember({"ii", "exact"}))
       ->capture_default_str();
@@ -19,8 +44,8 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
 
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
   app.add_option("--t", o.t, "Heat time t (0: c_t * h^(2/3))")->capture_default_str();
-  app.add_option("--ct", o.c_t, "Constant c_t of the default heat time")->capture_default_str();
-  app.add_option("--k", o.k, "Kernel cut at k * sqrt(t)")->capture_default_str();
+  app.add_option("--ct", o.c_t, "Constant c_t of the default heat time")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--k", o.k, "Kernel cut at k * sqrt(t)")->check(kPositiveFinite)->capture_default_str();
   const std::map<std::string, DistanceMode> distances{{"geodesic", DistanceMode::Geodesic},
                                                       {"euclidean", DistanceMode::Euclidean}};
   const std::map<std::string, Placement> placements{{"pointels", Placement::Pointels},
@@ -61,16 +86,40 @@ void Progress::end_bar() {
   if (!quiet_) std::fprintf(stderr, "\n");
 }
 
-FrontEnd run_front_end(const FrontEndOptions& o, double h, Progress& progress) {
+FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   FrontEnd fe;
-  fe.shape = make_shape(o.shape);
-  progress.start("digitize");
-  fe.set = digitize(*fe.shape, h);
-  fe.seconds_digitize = progress.finish();
-  if (fe.set.empty()) throw Error("the digitization at h = " + std::to_string(h) + " is empty: use a smaller h");
+  ContourFilter filter;
+  if (o.image.empty()) {
+    fe.shape = make_shape(o.shape);
+    fe.name = fe.shape->name();
+    fe.exact_length = fe.shape->length();
+    const double h = o.h == 0 ? 0.01 : o.h;
+    progress.start("digitize");
+    fe.set = digitize(*fe.shape, h);
+    fe.seconds_digitize = progress.finish();
+    if (fe.set.empty()) throw Error("the digitization at h = " + std::to_string(h) + " is empty: use a smaller h");
+  } else {
+    if (o.normals == "exact") throw Error("--normals exact needs a reference shape: an image has no exact curve");
+    fe.name = std::filesystem::path(o.image).filename().string();
+    fe.exact_length = std::nan("");
+    progress.start("read image");
+    const GrayImage image = read_image(o.image);
+    fe.set = binarize(image, BinarizeOptions{o.h, o.threshold, o.invert});
+    fe.seconds_digitize = progress.finish();
+    if (fe.set.empty())
+      throw Error(o.image + ": no foreground pixel (all values are " + (o.invert ? "below" : "at or above") +
+                  " the threshold); try --invert or another --threshold");
+    filter.min_linels = o.min_linels;
+    filter.largest_only = o.largest;
+  }
   progress.start("contours");
-  fe.contours = track_contours(fe.set);
+  FilteredContours kept = filter_contours(track_contours(fe.set), filter);
+  fe.contours = std::move(kept.contours);
   fe.seconds_contours = progress.finish();
+  if (kept.dropped > 0 && !progress.quiet())
+    std::fprintf(stderr, "warning: dropped %zu contour(s)%s\n", kept.dropped,
+                 o.largest ? " (keeping the largest only)" : (" shorter than " + std::to_string(o.min_linels) + " linels").c_str());
+  if (fe.contours.contours.empty()) throw Error("no contour left (all shorter than --min-linels)");
   progress.start("normals");
   fe.normals = o.normals == "exact" ? exact_normals(*fe.shape, fe.contours)
                                     : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R});

@@ -11,12 +11,17 @@
 
 namespace digilap::app {
 
-/// Everything before the operator: which shape, at which h, with which normals.
+/// Everything before the operator: which shape or image, at which h, with which normals.
 struct FrontEndOptions {
   std::string shape = "flower";
-  double h = 0.01;
+  std::string image;            // a PBM/PGM/PNG file instead of a shape
+  double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images
   double k_R = 1.0;
-  std::string normals = "ii";  // "ii" (Integral Invariants) or "exact" (reference shapes only)
+  std::string normals = "ii";   // "ii" (Integral Invariants) or "exact" (reference shapes only)
+  double threshold = 0.5;       // images: foreground = value < threshold * maxval ...
+  bool invert = false;          // ... or >= with --invert
+  bool largest = false;         // images: keep the largest contour only
+  std::size_t min_linels = 8;   // images: drop contours with fewer linels (with a warning)
 };
 
 void add_front_end_options(CLI::App& app, FrontEndOptions& options, bool with_h = true);
@@ -41,7 +46,9 @@ private:
 };
 
 struct FrontEnd {
-  std::unique_ptr<Shape> shape;
+  std::unique_ptr<Shape> shape;  // null for an image
+  std::string name;              // the shape's name or the image's file name
+  double exact_length = 0.0;     // the curve's length; NaN for an image (no exact curve)
   DigitalSet set;
   ContourSet contours;
   LinelNormals normals;
@@ -49,8 +56,8 @@ struct FrontEnd {
   double seconds_digitize = 0, seconds_contours = 0, seconds_normals = 0, seconds_measures = 0;
 };
 
-/// Shape -> digitization -> contours -> normals -> measures, timed stage by stage.
-FrontEnd run_front_end(const FrontEndOptions& options, double h, Progress& progress);
+/// Shape or image -> digital set -> contours -> normals -> measures, timed stage by stage.
+FrontEnd run_front_end(const FrontEndOptions& options, Progress& progress);
 
 /// Runs `body`, turning digilap::Error and std::exception into "error: ..." and exit code 1.
 int guarded_main(const std::function<int()>& body);

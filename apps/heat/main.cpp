@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
     if (steps < 1) throw Error("--steps must be >= 1");
     if (snapshots < 2 || snapshots > steps + 1) throw Error("--snapshots must be in [2, steps + 1]");
     app::Progress progress(quiet);
-    const app::FrontEnd fe = app::run_front_end(fe_options, fe_options.h, progress);
+    const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     progress.start("operator");
     const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
     progress.finish();
@@ -84,8 +84,8 @@ int main(int argc, char** argv) {
     progress.end_bar();
 
     const double omega2 = std::pow(2 * kPi / P, 2), a0 = modal_amplitude(u0, mode, op.mass);
-    std::printf("# %s, h = %g, N = %ld, t = %.4g, P (estimated) = %.8g, scheme %s, dt = %g\n", fe.shape->name().c_str(),
-                fe_options.h, static_cast<long>(op.rows()), op.t, P, scheme.c_str(), tau / steps);
+    std::printf("# %s, h = %g, N = %ld, t = %.4g, P (estimated) = %.8g, scheme %s, dt = %g\n", fe.name.c_str(),
+                fe.contours.h, static_cast<long>(op.rows()), op.t, P, scheme.c_str(), tau / steps);
     std::printf("| tau | first-mode amplitude a(tau)/a(0) | exp(-(2 pi/P)^2 tau) | relative difference | total heat |\n");
     std::printf("|---|---|---|---|---|\n");
     for (std::size_t k = 0; k < snaps.size(); ++k) {
@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
       panels.push_back({title, snaps[k]});
     }
     app::save_contour_panels(svg_path, op.positions, op.row_offset, panels, std::min<int>(3, static_cast<int>(panels.size())),
-                             "Heat flow (" + initial + ") on the " + fe.shape->name() + ", h = " + std::to_string(fe_options.h).substr(0, 6));
+                             "Heat flow (" + initial + ") on the " + fe.name + ", h = " + std::to_string(fe.contours.h).substr(0, 6));
     std::printf("\nwrote %s\nwrote %s\n", csv_path.c_str(), svg_path.c_str());
     return 0;
   });

@@ -20,19 +20,20 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
-    const app::FrontEnd fe = app::run_front_end(fe_options, fe_options.h, progress);
+    const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     progress.start("operator");
     const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
     progress.finish();
     progress.start("write");
     const auto paths = save_operator(op, out_dir);
     progress.finish();
-    std::printf("shape %s, h = %g: %zu contour(s), N = %ld elements, nnz(L) = %ld\n", fe.shape->name().c_str(),
-                fe_options.h, fe.contours.contours.size(), static_cast<long>(op.rows()),
+    std::printf("shape %s, h = %g: %zu contour(s), N = %ld elements, nnz(L) = %ld\n", fe.name.c_str(),
+                fe.contours.h, fe.contours.contours.size(), static_cast<long>(op.rows()),
                 static_cast<long>(op.L.nonZeros()));
-    std::printf("t = %.6g, cut = k sqrt(t) = %.6g, estimated length %.10g (exact %.10g, relative error %.2e)\n",
-                op.t, op.cut, fe.measures.total_length(), fe.shape->length(),
-                fe.measures.total_length() / fe.shape->length() - 1.0);
+    std::printf("t = %.6g, cut = k sqrt(t) = %.6g, estimated length %.10g", op.t, op.cut, fe.measures.total_length());
+    if (fe.shape)
+      std::printf(" (exact %.10g, relative error %.2e)", fe.exact_length, fe.measures.total_length() / fe.exact_length - 1.0);
+    std::printf("\n");
     for (const auto& p : paths) std::printf("wrote %s\n", p.c_str());
     return 0;
   });

@@ -12,6 +12,7 @@ using namespace digilap;
 
 int main(int argc, char** argv) {
   CLI::App app{"digilap-spectrum: smallest eigenpairs of -A x = lambda M x (Spectra, shift-and-invert).\n"
+               "The table compares lambda_k with (2 pi m / P)^2 and with m^2 lambda_1 (any simple closed contour).\n"
                "Writes <out>/eigenvalues.csv, <out>/eigenvectors.csv and <out>/eigenvectors.svg."};
   app::FrontEndOptions fe_options;
   HeatLaplacianOptions op_options;
@@ -30,7 +31,7 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
-    const app::FrontEnd fe = app::run_front_end(fe_options, fe_options.h, progress);
+    const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     progress.start("operator");
     const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
     progress.finish();
@@ -38,12 +39,13 @@ int main(int argc, char** argv) {
     const Spectrum s = smallest_eigenpairs(op, spectrum_options);
     progress.finish();
 
-    const double P = fe.shape->length(), P_est = fe.measures.total_length();
+    // Images have no exact curve: the exact column then uses the estimated length of contour 0.
+    const double P_est = op.contour_length[0], P = fe.shape ? fe.exact_length : P_est;
     std::printf("# %s, h = %g, N = %ld, t = %.4g, P = %.8g (estimated %.8g), %d Lanczos restarts, %d solves\n",
-                fe.shape->name().c_str(), fe_options.h, static_cast<long>(op.rows()), op.t, P, P_est, s.iterations,
+                fe.name.c_str(), fe.contours.h, static_cast<long>(op.rows()), op.t, P, P_est, s.iterations,
                 s.operations);
-    std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | pair split |\n");
-    std::printf("|---|---|---|---|---|---|---|---|\n");
+    std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | lambda_k/lambda_1 (m^2) | pair split |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|\n");
     std::filesystem::create_directories(out_dir);
     const std::string values_path = out_dir + "/eigenvalues.csv", vectors_path = out_dir + "/eigenvectors.csv",
                       svg_path = out_dir + "/eigenvectors.svg";
@@ -59,10 +61,10 @@ int main(int argc, char** argv) {
       char split[32] = "";
       if (second_of_pair) std::snprintf(split, sizeof split, "%.1e", std::abs(lambda - s.eigenvalues[k - 1]) / lambda);
       if (m == 0)
-        std::printf("| %ld | 0 | %.3e | 0 | | 0 | | |\n", static_cast<long>(k), lambda);
+        std::printf("| %ld | 0 | %.3e | 0 | | 0 | | | |\n", static_cast<long>(k), lambda);
       else
-        std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %s |\n", static_cast<long>(k), m, lambda, exact,
-                    lambda / exact - 1, formula, lambda / formula - 1, split);
+        std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %.4f (%d) | %s |\n", static_cast<long>(k), m, lambda, exact,
+                    lambda / exact - 1, formula, lambda / formula - 1, lambda / s.eigenvalues[1], m * m, split);
       values << k << ',' << m << ',' << lambda << ',' << exact << ',' << formula << '\n';
     }
     std::ofstream vectors(vectors_path);
@@ -84,7 +86,7 @@ int main(int argc, char** argv) {
     }
     if (!panels.empty())
       app::save_contour_panels(svg_path, op.positions, op.row_offset, panels, 4,
-                               "Eigenvectors of the digital Laplace-Beltrami operator, " + fe.shape->name());
+                               "Eigenvectors of the digital Laplace-Beltrami operator, " + fe.name);
     std::printf("\nwrote %s\nwrote %s\nwrote %s\n", values_path.c_str(), vectors_path.c_str(), svg_path.c_str());
     return 0;
   });

@@ -15,3 +15,4 @@
 #include "digilap/spectrum.hpp"
 #include "digilap/heat_flow.hpp"
 #include "digilap/smoothing.hpp"
+#include "digilap/image.hpp"

@@ -1,0 +1,118 @@
+// Every input a user can give gets a correct answer or a clear error: one row per case, run
+// through the apps as a user would, checking the exit code and a fragment of the message.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+struct Case {
+  const char* name;
+  const char* app;       // "operator", "spectrum", "heat", "convergence"
+  std::string args;      // {dir} stands for the scratch directory
+  std::string file;      // written to {dir}/<name>.img when the arguments name that file
+  bool succeeds;         // expected exit code 0 (else non-zero)
+  const char* fragment;  // expected in the output
+};
+
+std::string app_path(const std::string& app) {
+  if (app == "operator") return DIGILAP_APP_OPERATOR;
+  if (app == "spectrum") return DIGILAP_APP_SPECTRUM;
+  if (app == "heat") return DIGILAP_APP_HEAT;
+  return DIGILAP_APP_CONVERGENCE;
+}
+
+std::string replace_all(std::string s, const std::string& from, const std::string& to) {
+  for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+  return s;
+}
+
+std::string p5(int w, int h, int maxval, int value) {
+  std::string s = "P5\n" + std::to_string(w) + " " + std::to_string(h) + "\n" + std::to_string(maxval) + "\n";
+  return s + std::string(static_cast<std::size_t>(w) * h, static_cast<char>(value));
+}
+
+const std::vector<Case> kCases = {
+    {"missing_file", "operator", "--image {dir}/does_not_exist.pgm", "", false, "cannot open the file"},
+    {"empty_file", "operator", "--image {dir}/empty_file.img", "", false, "the file is empty"},
+    {"truncated_raster", "operator", "--image {dir}/truncated_raster.img", "P5\n10 10\n255\n" + std::string(50, '\0'), false, "truncated: 50 of 100"},
+    {"truncated_header", "operator", "--image {dir}/truncated_header.img", "P2\n10", false, "truncated: no height"},
+    {"truncated_ascii", "operator", "--image {dir}/truncated_ascii.img", "P2 3 3 255 0 0 0 0", false, "truncated: 4 of 9 pixels"},
+    {"wrong_magic", "operator", "--image {dir}/wrong_magic.img", "GIF89a....", false, "unknown format"},
+    {"png_garbage", "operator", "--image {dir}/png_garbage.img", std::string("\x89PNG\r\n\x1a\n", 8) + "garbage", false, "not a readable PNG"},
+    {"width_zero", "operator", "--image {dir}/width_zero.img", "P2 0 3 255\n", false, "width and height must be > 0"},
+    {"width_negative", "operator", "--image {dir}/width_negative.img", "P2 -4 3 255\n", false, "width is negative"},
+    {"size_overflow", "operator", "--image {dir}/size_overflow.img", "P5 4294967296 4294967296 255\n", false, "above the limit"},
+    {"size_over_limit", "operator", "--image {dir}/size_over_limit.img", "P5 30000 30000 255\n", false, "above the limit"},
+    {"maxval_zero", "operator", "--image {dir}/maxval_zero.img", "P2 2 2 0\n0 0 0 0\n", false, "maxval must be in [1, 65535]"},
+    {"maxval_too_large", "operator", "--image {dir}/maxval_too_large.img", "P2 2 2 70000\n0 0 0 0\n", false, "maxval must be in [1, 65535]"},
+    {"value_above_maxval", "operator", "--image {dir}/value_above_maxval.img", "P2 2 2 10\n0 11 0 0\n", false, "above maxval"},
+    {"pbm_bad_digit", "operator", "--image {dir}/pbm_bad_digit.img", "P1 2 2\n0 1 2 0\n", false, "must be 0 or 1"},
+    {"all_background", "operator", "--image {dir}/all_background.img", p5(20, 20, 255, 255), false, "no foreground pixel"},
+    {"all_foreground", "operator", "--image {dir}/all_foreground.img --out {dir}/out", p5(20, 20, 255, 0), true, "1 contour(s), N = 80"},
+    {"single_pixel_disk_too_wide", "operator", "--image {dir}/single_pixel_disk_too_wide.img --min-linels 0", "P1 3 3 0 0 0 0 1 0 0 0 0", false, "exceeds the whole set"},
+    {"single_pixel_dropped", "operator", "--image {dir}/single_pixel_dropped.img", "P1 3 3 0 0 0 0 1 0 0 0 0", false, "no contour left"},
+    {"single_pixel_kept", "operator", "--image {dir}/single_pixel_kept.img --min-linels 0 --kR 0.5 --out {dir}/out", "P1 3 3 0 0 0 0 1 0 0 0 0", true, "N = 4 elements"},
+    {"single_pixel_spectrum", "spectrum", "--image {dir}/single_pixel_spectrum.img --min-linels 0 --kR 0.5 --out {dir}/out", "P1 3 3 0 0 0 0 1 0 0 0 0", false, "count must be in [1, 3]"},
+    {"exact_normals_on_image", "operator", "--image {dir}/exact_normals_on_image.img --normals exact", p5(9, 9, 255, 0), false, "needs a reference shape"},
+    {"h_zero", "operator", "--h 0", "", false, "must be > 0 and finite"},
+    {"h_negative", "operator", "--h -0.1", "", false, "must be > 0 and finite"},
+    {"h_nan", "operator", "--h nan", "", false, "must be > 0 and finite"},
+    {"h_infinite", "operator", "--h inf", "", false, "must be > 0 and finite"},
+    {"h_too_fine", "operator", "--h 1e-12", "", false, "too fine"},
+    {"h_not_a_number", "operator", "--h abc", "", false, "must be a number"},
+    {"t_negative", "operator", "--t -1", "", false, "t must be > 0 and finite"},
+    {"t_nan", "operator", "--t nan", "", false, "t must be > 0 and finite"},
+    {"k_zero", "operator", "--k 0", "", false, "must be > 0 and finite"},
+    {"k_negative", "spectrum", "--k -3", "", false, "must be > 0 and finite"},
+    {"ct_zero", "heat", "--ct 0", "", false, "must be > 0 and finite"},
+    {"kR_covers_shape", "operator", "--shape circle --h 0.1 --kR 100", "", false, "exceeds the whole set"},
+    {"window_wider_than_contour", "operator", "--shape circle --h 0.1 --t 100 --out {dir}/out", "", true, "nnz(L) = 5"},
+    {"unknown_shape", "operator", "--shape square", "", false, "unknown shape 'square'"},
+    {"unknown_shape_convergence", "convergence", "--shape square", "", false, "unknown shape 'square'"},
+    {"unknown_function", "convergence", "--function sin", "", false, "unknown test function 'sin'"},
+    {"unknown_operator", "convergence", "--operators cotan", "", false, "unknown operator 'cotan'"},
+    {"bad_distance", "operator", "--distance manhattan", "", false, "manhattan"},
+    {"memory_limit", "operator", "--memory-limit 1000", "", false, "above the memory limit"},
+    {"count_too_large", "spectrum", "--shape circle --h 0.5 --count 50", "", false, "count must be in [1,"},
+    {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
+    {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},
+    {"unwritable_output", "operator", "--shape circle --h 0.1 --out /proc/digilap_cannot_write", "", false, "cannot create directory"},
+};
+
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
+
+class BadInput : public ::testing::TestWithParam<Case> {};
+
+TEST_P(BadInput, ClearMessageAndExitCode) {
+  const Case& c = GetParam();
+  const auto dir = std::filesystem::temp_directory_path() / "digilap_bad_input";
+  std::filesystem::create_directories(dir);
+  const std::string file = std::string(c.name) + ".img";
+  if (c.args.find(file) != std::string::npos) std::ofstream(dir / file, std::ios::binary) << c.file;
+  const std::string command =
+      app_path(c.app) + " --quiet " + replace_all(c.args, "{dir}", dir.string()) + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  std::string output;
+  char buffer[4096];
+  while (std::size_t n = fread(buffer, 1, sizeof buffer, pipe)) output.append(buffer, n);
+  const int status = pclose(pipe);
+  ASSERT_TRUE(WIFEXITED(status)) << "crashed (signal): " << command << "\n" << output;
+  const int code = WEXITSTATUS(status);
+  if (c.succeeds) EXPECT_EQ(code, 0) << command << "\n" << output;
+  else EXPECT_NE(code, 0) << command << "\n" << output;
+  EXPECT_NE(output.find(c.fragment), std::string::npos) << "expected '" << c.fragment << "' in:\n" << output;
+  // Never a sanitizer report, whatever the outcome.
+  EXPECT_EQ(output.find("runtime error"), std::string::npos) << output;
+  EXPECT_EQ(output.find("AddressSanitizer"), std::string::npos) << output;
+}
+
+INSTANTIATE_TEST_SUITE_P(Table, BadInput, ::testing::ValuesIn(kCases),
+                         [](const auto& info) { return std::string(info.param.name); });
+
+}  // namespace
