@@ -9,22 +9,7 @@
 #include <iterator>
 #include <sstream>
 
-// PNG through stb_image (Debian's libstb-dev), compiled here as its single-file
-// implementation, PNG only: the smallest decoder surface to expose to untrusted files.
-#define STB_IMAGE_IMPLEMENTATION
-#define STB_IMAGE_STATIC
-#define STBI_ONLY_PNG
-#define STBI_NO_STDIO
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wunused-function"
-#pragma GCC diagnostic ignored "-Wmissing-field-initializers"
-#pragma GCC diagnostic ignored "-Wsign-compare"
-#endif
-#include <stb/stb_image.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
+#include "png_decode.hpp"
 
 namespace digilap {
 
@@ -32,13 +17,19 @@ namespace {
 
 [[noreturn]] void fail(const std::string& name, const std::string& why) { throw Error(name + ": " + why); }
 
-void check_size(long long width, long long height, const std::string& name, const ImageLimits& limits) {
+}  // namespace
+
+namespace detail {
+void check_image_size(long long width, long long height, const std::string& name, const ImageLimits& limits) {
   if (width <= 0 || height <= 0)
     fail(name, "width and height must be > 0, got " + std::to_string(width) + " x " + std::to_string(height));
   if (width > limits.max_pixels || height > limits.max_pixels || width * height > limits.max_pixels)
     fail(name, "image of " + std::to_string(width) + " x " + std::to_string(height) + " pixels is above the limit of " +
                    std::to_string(limits.max_pixels) + " pixels");
 }
+}  // namespace detail
+
+namespace {
 
 // Netpbm is a few lines of grammar; written here because stb reads neither ASCII Netpbm nor PBM.
 class NetpbmReader {
@@ -50,7 +41,7 @@ public:
     p_ += 2;
     GrayImage image;
     const long long width = number("width"), height = number("height");
-    check_size(width, height, name_, limits);
+    detail::check_image_size(width, height, name_, limits);
     image.width = static_cast<int>(width);
     image.height = static_cast<int>(height);
     if (kind == '2' || kind == '5') {
@@ -135,38 +126,6 @@ private:
   std::string name_;
 };
 
-GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::string& name, const ImageLimits& limits) {
-  if (size > static_cast<std::size_t>(INT32_MAX)) fail(name, "file too large");
-  int w = 0, h = 0, channels = 0;
-  const auto len = static_cast<int>(size);
-  if (!stbi_info_from_memory(data, len, &w, &h, &channels)) fail(name, std::string("not a readable PNG (") + stbi_failure_reason() + ")");
-  check_size(w, h, name, limits);  // before decoding: the decoder allocates w * h * channels
-  const bool sixteen = stbi_is_16_bit_from_memory(data, len);
-  GrayImage image;
-  image.width = w;
-  image.height = h;
-  image.maxval = sixteen ? 65535 : 255;
-  image.pixels.resize(static_cast<std::size_t>(w) * h);
-  auto convert = [&](auto* px) {
-    if (!px) fail(name, std::string("cannot decode the PNG (") + stbi_failure_reason() + ")");
-    const double top = image.maxval;
-    for (std::size_t k = 0; k < image.pixels.size(); ++k) {
-      const auto* p = px + k * channels;
-      double grey = channels >= 3 ? 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2] : p[0];
-      const bool alpha = channels == 2 || channels == 4;
-      if (alpha) {
-        const double a = p[channels - 1] / top;
-        grey = a * grey + (1 - a) * top;  // transparency composited over white
-      }
-      image.pixels[k] = static_cast<std::uint16_t>(std::lround(std::clamp(grey, 0.0, top)));
-    }
-    stbi_image_free(px);
-  };
-  if (sixteen) convert(stbi_load_16_from_memory(data, len, &w, &h, &channels, 0));
-  else convert(stbi_load_from_memory(data, len, &w, &h, &channels, 0));
-  return image;
-}
-
 }  // namespace
 
 GrayImage decode_image(const std::uint8_t* data, std::size_t size, const std::string& name, const ImageLimits& limits) {
@@ -174,7 +133,7 @@ GrayImage decode_image(const std::uint8_t* data, std::size_t size, const std::st
   if (size >= 2 && data[0] == 'P' && (data[1] == '1' || data[1] == '2' || data[1] == '4' || data[1] == '5'))
     return NetpbmReader(data, size, name).read(limits);
   static const std::uint8_t png_magic[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
-  if (size >= 8 && std::equal(png_magic, png_magic + 8, data)) return decode_png(data, size, name, limits);
+  if (size >= 8 && std::equal(png_magic, png_magic + 8, data)) return detail::decode_png(data, size, name, limits);
   fail(name, "unknown format (expected a PBM P1/P4, PGM P2/P5 or PNG file)");
 }
 

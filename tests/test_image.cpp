@@ -121,3 +121,22 @@ TEST(Image, HorseSpectrumRatiosAreSquares) {
     EXPECT_NEAR(s.eigenvalues[2 * m - 1] / s.eigenvalues[1], m * m, 0.05 * m * m) << "m = " << m;
   }
 }
+
+TEST(Image, EveryFuzzSeedDecodesOrIsRefusedClearly) {
+  // The committed seeds include inputs that once tripped a sanitizer (regression_*): each must
+  // give an image whose contours enclose exactly its pixels, or a digilap::Error.
+  int decoded = 0, refused = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(DIGILAP_FUZZ_CORPUS)) {
+    try {
+      const DigitalSet set = binarize(read_image(entry.path().string()));
+      std::int64_t twice_area = 0;
+      for (const auto& c : track_contours(set).contours) twice_area += c.twice_signed_area();
+      EXPECT_EQ(twice_area, 2 * set.pixel_count()) << entry.path();
+      ++decoded;
+    } catch (const Error&) {
+      ++refused;
+    }
+  }
+  EXPECT_GE(decoded, 6);
+  EXPECT_GE(decoded + refused, 8);
+}
