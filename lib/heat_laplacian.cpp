@@ -1,6 +1,7 @@
 #include "digilap/heat_laplacian.hpp"
 
 #include "digilap/error.hpp"
+#include "elements.hpp"
 #include "gaussian_kernel.hpp"
 
 #include <algorithm>
@@ -10,50 +11,15 @@
 
 namespace digilap {
 
+using detail::cyclic_distance;
+using detail::Elements;
+using detail::gather_elements;
+using detail::geodesic_window;
+using detail::GeodesicWindow;
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// The elements of all contours, in row order, with what the assembly needs of them.
-struct Elements {
-  Eigen::MatrixX2d positions;
-  Eigen::VectorXd mu, s;
-  std::vector<Eigen::Index> offset{0};
-  std::vector<double> length;
-};
-
-Elements gather_elements(const ContourSet& contours, const Measures& measures, Placement placement) {
-  if (measures.contours.size() != contours.contours.size())
-    throw Error("heat_laplacian: measures are given for " + std::to_string(measures.contours.size()) +
-                " contours, but there are " + std::to_string(contours.contours.size()));
-  Elements e;
-  for (std::size_t c = 0; c < contours.contours.size(); ++c) {
-    if (static_cast<std::size_t>(measures.contours[c].linel_mu.size()) != contours.contours[c].size())
-      throw Error("heat_laplacian: the measures of contour " + std::to_string(c) + " do not match its size");
-    e.offset.push_back(e.offset.back() + static_cast<Eigen::Index>(contours.contours[c].size()));
-  }
-  const Eigen::Index n = e.offset.back();
-  e.positions.resize(n, 2);
-  e.mu.resize(n);
-  e.s.resize(n);
-  for (std::size_t c = 0; c < contours.contours.size(); ++c) {
-    const ContourMeasures& m = measures.contours[c];
-    e.length.push_back(m.length);
-    for (Eigen::Index i = 0; i < m.S.size(); ++i) {
-      const Eigen::Index r = e.offset[c] + i;
-      if (placement == Placement::Pointels) {
-        e.positions.row(r) = contours.pointel_position(c, i).transpose();
-        e.mu[r] = m.vertex_mu[i];
-        e.s[r] = m.S[i];
-      } else {
-        e.positions.row(r) = contours.linel_midpoint(c, i).transpose();
-        e.mu[r] = m.linel_mu[i];
-        e.s[r] = m.S[i] + 0.5 * m.linel_mu[i];  // SPEC §4: the midpoint of l_i along the contour
-      }
-    }
-  }
-  return e;
-}
 
 void check_positive(const char* what, double v) {
   if (!(v > 0) || !std::isfinite(v)) {
@@ -63,8 +29,8 @@ void check_positive(const char* what, double v) {
   }
 }
 
-void check_memory(std::size_t nnz, std::size_t rows, double limit) {
-  const double bytes = heat_laplacian_bytes(nnz, rows);
+void check_memory(std::size_t nnz, std::size_t rows, double limit, bool stiffness) {
+  const double bytes = heat_laplacian_bytes(nnz, rows, stiffness);
   if (bytes > limit) {
     std::ostringstream msg;
     msg << "heat_laplacian: the operator would take about " << bytes / 1e9 << " GB (" << nnz
@@ -72,58 +38,6 @@ void check_memory(std::size_t nnz, std::size_t rows, double limit) {
         << " GB; raise memory_limit_bytes, use a coarser h, or a smaller t or k";
     throw Error(msg.str());
   }
-}
-
-// Row neighbourhoods: for each row, the sorted columns of its off-diagonal neighbours and
-// their squared distances, written by the caller-specific `Pattern`.
-// Geodesic pattern: elements of one contour, a cyclic window [i - back, i + fwd].
-struct GeodesicWindow {
-  Eigen::Index back = 0, fwd = 0;
-};
-
-// Symmetric distance along a contour (SPEC §3): the same bits for (i, j) and (j, i).
-inline double cyclic_distance(double si, double sj, double P) {
-  const double d = std::abs(sj - si);
-  return std::min(d, P - d);
-}
-
-GeodesicWindow geodesic_window(const double* s, Eigen::Index n, Eigen::Index i, double P, double cut) {
-  GeodesicWindow w;
-  if (n <= 1) return w;
-  if (cut >= 0.5 * P) {  // the window covers the contour: every other element, once
-    w.fwd = n - 1;
-    return w;
-  }
-  // Forward offsets (s_j - s_i, + P after the wrap) grow with j: binary search the last one
-  // within the cut, then settle the boundary with the symmetric distance itself.
-  auto fwd_offset = [&](Eigen::Index m) {
-    const Eigen::Index j = i + m;
-    return j < n ? s[j] - s[i] : s[j - n] + P - s[i];
-  };
-  Eigen::Index lo = 0, hi = n - 1;  // invariant: offset(lo) <= cut (offset(0) = 0)
-  while (lo < hi) {
-    const Eigen::Index mid = (lo + hi + 1) / 2;
-    if (fwd_offset(mid) <= cut) lo = mid; else hi = mid - 1;
-  }
-  auto dist_fwd = [&](Eigen::Index m) { return cyclic_distance(s[i], s[(i + m) % n], P); };
-  while (lo > 0 && dist_fwd(lo) > cut) --lo;
-  while (lo + 1 <= n - 1 && dist_fwd(lo + 1) <= cut) ++lo;
-  w.fwd = lo;
-  auto back_offset = [&](Eigen::Index m) {
-    const Eigen::Index j = i - m;
-    return j >= 0 ? s[i] - s[j] : s[i] + P - s[j + n];
-  };
-  const Eigen::Index max_back = n - 1 - w.fwd;
-  lo = 0, hi = max_back;
-  while (lo < hi) {
-    const Eigen::Index mid = (lo + hi + 1) / 2;
-    if (back_offset(mid) <= cut) lo = mid; else hi = mid - 1;
-  }
-  auto dist_back = [&](Eigen::Index m) { return cyclic_distance(s[i], s[((i - m) % n + n) % n], P); };
-  while (lo > 0 && dist_back(lo) > cut) --lo;
-  while (lo + 1 <= max_back && dist_back(lo + 1) <= cut) ++lo;
-  w.back = lo;
-  return w;
 }
 
 // Uniform grid of cell size `cut` over the element positions, for the Euclidean neighbours.
@@ -184,17 +98,27 @@ void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::Index>& 
 // Row r of L and A, whose columns (ascending) are already in L's index slots and whose squared
 // distances are in L's value slots (0 on the diagonal, at position `diag`). Turns them into
 // L_rj = w(d) mu_j and A_rj = w(d) (mu_r mu_j) (the product mu_r mu_j is commutative, so A is
-// symmetric bit for bit), then sets the diagonals so that every row sums to zero.
-void finish_row(SparseMatrix& L, SparseMatrix& A, Eigen::Index r, Eigen::Index diag, const Eigen::VectorXd& mu,
+// symmetric bit for bit), then sets the diagonals so that every row sums to zero. A may be null
+// (L only).
+void finish_row(SparseMatrix& L, SparseMatrix* A, Eigen::Index r, Eigen::Index diag, const Eigen::VectorXd& mu,
                 double inv_4t, double scale) {
   const int begin = L.outerIndexPtr()[r], count = L.outerIndexPtr()[r + 1] - begin;
   const int* col = L.innerIndexPtr() + begin;
   double* lval = L.valuePtr() + begin;
-  double* aval = A.valuePtr() + begin;
-  std::copy(col, col + count, A.innerIndexPtr() + begin);
   gaussian_weights(lval, count, inv_4t, scale);  // squared distances -> kernel weights
   const double mu_r = mu[r];
   double lsum = 0, asum = 0;
+  if (!A) {  // L only
+    for (int k = 0; k < count; ++k) {
+      if (k == diag) continue;
+      lval[k] *= mu[col[k]];
+      lsum += lval[k];
+    }
+    lval[diag] = -lsum;
+    return;
+  }
+  double* aval = A->valuePtr() + begin;
+  std::copy(col, col + count, A->innerIndexPtr() + begin);
   for (int k = 0; k < count; ++k) {
     if (k == diag) continue;
     const double w = lval[k], mu_j = mu[col[k]];
@@ -216,10 +140,10 @@ std::pair<std::size_t, std::size_t> ContourOperator::element(Eigen::Index row) c
   return {c, static_cast<std::size_t>(row - row_offset[c])};
 }
 
-double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows) {
+double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffness) {
   // L and A: values (8) + column indices (4) per nonzero, row offsets (4) per row; M: 12 per row;
   // plus the element arrays (positions, mu, arclength: 32 per row).
-  return 2.0 * (12.0 * nonzeros + 4.0 * (rows + 1)) + 12.0 * rows + 32.0 * rows;
+  return (stiffness ? 2.0 : 1.0) * (12.0 * nonzeros + 4.0 * (rows + 1)) + 12.0 * rows + 32.0 * rows;
 }
 
 double heat_time(double h, const HeatLaplacianOptions& options) {
@@ -242,7 +166,7 @@ ContourOperator richardson(const ContourSet& contours, const Measures& measures,
   plain.t *= 0.5;
   const ContourOperator half = assemble(contours, measures, plain);
   op.L = 2.0 * half.L - op.L;
-  op.A = 2.0 * half.A - op.A;
+  if (options.stiffness) op.A = 2.0 * half.A - op.A;
   return op;
 }
 }  // namespace
@@ -274,6 +198,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
   op.contour_length = e.length;
 
   std::vector<Eigen::Index> row_nnz(static_cast<std::size_t>(n));
+  SparseMatrix* stiffness = options.stiffness ? &op.A : nullptr;
   if (options.distance == DistanceMode::Geodesic) {
     // Pass 1: each row's cyclic window, hence the exact pattern, before any allocation.
     std::vector<GeodesicWindow> window(static_cast<std::size_t>(n));
@@ -287,9 +212,9 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
       }
     }
     check_memory(static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))),
-                 static_cast<std::size_t>(n), options.memory_limit_bytes);
+                 static_cast<std::size_t>(n), options.memory_limit_bytes, options.stiffness);
     allocate(op.L, n, row_nnz);
-    allocate(op.A, n, row_nnz);
+    if (options.stiffness) allocate(op.A, n, row_nnz);
     // Pass 2: fill the rows in parallel; columns of a cyclic window, rotated to be ascending.
     for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
       const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
@@ -316,7 +241,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
         if (hi >= len) emit(0, hi - len);
         emit(std::max<Eigen::Index>(lo, 0), std::min(hi, len - 1));
         if (lo < 0) emit(lo + len, len - 1);
-        finish_row(op.L, op.A, off + i, diag, e.mu, inv_4t, scale);
+        finish_row(op.L, stiffness, off + i, diag, e.mu, inv_4t, scale);
       }
     }
   } else {
@@ -328,9 +253,9 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
       row_nnz[i] = count;
     }
     check_memory(static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))),
-                 static_cast<std::size_t>(n), options.memory_limit_bytes);
+                 static_cast<std::size_t>(n), options.memory_limit_bytes, options.stiffness);
     allocate(op.L, n, row_nnz);
-    allocate(op.A, n, row_nnz);
+    if (options.stiffness) allocate(op.A, n, row_nnz);
 #pragma omp parallel
     {
       std::vector<unsigned char> mark;  // per thread: candidates over a row's column range
@@ -367,7 +292,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
           d2[k] = dx * dx + dy * dy;
           if (col[k] == i) diag = k;
         }
-        finish_row(op.L, op.A, i, diag, e.mu, inv_4t, scale);
+        finish_row(op.L, stiffness, i, diag, e.mu, inv_4t, scale);
       }
     }
   }

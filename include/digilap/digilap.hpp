@@ -16,3 +16,4 @@
 #include "digilap/heat_flow.hpp"
 #include "digilap/smoothing.hpp"
 #include "digilap/image.hpp"
+#include "digilap/matrix_free.hpp"

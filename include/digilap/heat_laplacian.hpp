@@ -51,6 +51,9 @@ struct HeatLaplacianOptions {
   /// negative) and with it the guarantee that A is negative semidefinite: keep it off for heat
   /// flow and spectra.
   bool richardson = false;
+  /// Also assemble the symmetric stiffness A = M L (needed by heat flow and spectra). Without
+  /// it the operator takes half the memory (op.A stays empty): what matters at h = 1e-4.
+  bool stiffness = true;
   /// Refuse to allocate the matrices if their estimated size exceeds this (bytes).
   double memory_limit_bytes = 8.0 * 1024 * 1024 * 1024;
 };
@@ -74,9 +77,9 @@ struct ContourOperator {
   std::pair<std::size_t, std::size_t> element(Eigen::Index row) const;
 };
 
-/// Bytes the heat Laplacian would take (L and A in compressed storage, M and the arrays), for
-/// a given number of nonzeros per matrix and of rows.
-double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows);
+/// Bytes the heat Laplacian would take (L, and A unless `stiffness` is false, in compressed
+/// storage; M and the element arrays), for a given number of nonzeros per matrix and of rows.
+double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffness = true);
 
 /// The heat-kernel Laplacian of SPEC §4. Assembly: each row's neighbours come from a window
 /// over the sorted arclengths (geodesic) or a uniform grid of cell k sqrt(t) (Euclidean), the

@@ -1,0 +1,127 @@
+// The whole pipeline stage by stage on the flower, for several h and 1 or 2 threads: time, N,
+// nnz and peak memory. Each configuration runs in its own child process (fork), so that its
+// peak resident memory (getrusage) is its own.
+#include "digilap/digilap.hpp"
+
+#include <CLI/CLI.hpp>
+#include <omp.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+using namespace digilap;
+
+namespace {
+double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
+double peak_gb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_maxrss / 1024.0 / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+void run(double h, int threads, double eigen_min_h, double memory_limit) {
+  omp_set_num_threads(threads);
+  Flower flower;
+  std::string row;
+  char cell[64];
+  auto add = [&](const char* fmt, double v) {
+    std::snprintf(cell, sizeof cell, fmt, v);
+    row += " | ";
+    row += cell;
+  };
+  double t0 = now();
+  const DigitalSet set = digitize(flower, h);
+  const double t_digitize = now() - t0;
+  t0 = now();
+  const ContourSet contours = track_contours(set);
+  const double t_contours = now() - t0;
+  t0 = now();
+  const LinelNormals normals = ii_normals(set, contours);
+  const double t_normals = now() - t0;
+  t0 = now();
+  const Measures mu = measures(contours, normals);
+  const double t_measures = now() - t0;
+  const double peak_front = peak_gb();
+  HeatLaplacianOptions o;
+  o.stiffness = h >= eigen_min_h;  // A only where the factorized solvers run
+  o.memory_limit_bytes = memory_limit;
+  t0 = now();
+  const ContourOperator op = heat_laplacian(contours, mu, o);
+  const double t_assemble = now() - t0;
+  const Eigen::VectorXd x = Eigen::VectorXd::Ones(op.rows()) + 0.1 * op.positions.col(0);
+  t0 = now();
+  const Eigen::VectorXd y = op.L * x;
+  const double t_matvec = now() - t0;
+  t0 = now();
+  const MatrixFreeLaplacian mf(contours, mu, o);
+  const double t_free_setup = now() - t0;
+  t0 = now();
+  const Eigen::VectorXd z = mf * x;
+  const double t_free = now() - t0;
+  const double agreement = (y - z).cwiseAbs().maxCoeff() / (op.L.diagonal().cwiseAbs().maxCoeff() * x.cwiseAbs().maxCoeff());
+  t0 = now();
+  int cg_iterations = 0;
+  heat_step_cg(mf, x, op.t, 1e-10, &cg_iterations);
+  const double t_heat = now() - t0;
+  double t_eigen = -1;
+  if (h >= eigen_min_h) {
+    t0 = now();
+    smallest_eigenpairs(op, {10});
+    t_eigen = now() - t0;
+  }
+  std::snprintf(cell, sizeof cell, "| %g | %d | %ld | %ld", h, threads, static_cast<long>(op.rows()),
+                static_cast<long>(op.L.nonZeros()));
+  row = cell;
+  for (double v : {t_digitize, t_contours, t_normals, t_measures}) add("%.3f", v);
+  add("%.2f", peak_front);
+  add("%.3f", t_assemble);
+  add("%.4f", t_matvec);
+  add("%.3f", t_free_setup);
+  add("%.4f", t_free);
+  add("%.0f", t_matvec / t_free);
+  add("%.0e", agreement);
+  std::snprintf(cell, sizeof cell, " | %.3f (%d it.)", t_heat, cg_iterations);
+  row += cell;
+  if (t_eigen >= 0) add("%.2f", t_eigen);
+  else row += " | -";
+  add("%.2f", peak_gb());
+  std::printf("%s |\n", row.c_str());
+  std::fflush(stdout);
+}
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"digilap-bench: the pipeline stage by stage on the flower (time in s, peak memory in GiB)."};
+  std::vector<double> steps{1e-2, 3e-3, 1e-3, 3e-4, 1e-4};
+  std::vector<int> threads{1, 2};
+  double eigen_min_h = 1e-3, memory_limit = 20e9;
+  app.add_option("--h", steps, "Grid steps")->capture_default_str();
+  app.add_option("--threads", threads, "Thread counts")->capture_default_str();
+  app.add_option("--eigen-min-h", eigen_min_h, "Smallest h for the factorized 10 eigenpairs")->capture_default_str();
+  app.add_option("--memory-limit", memory_limit, "Bytes the operator may take")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  std::printf("| h | threads | N | nnz(L) | digitize | contours | normals | measures | peak GiB after measures | assemble | "
+              "mat-vec | matrix-free setup | matrix-free mat-vec | speed-up | agreement | heat step (CG, matrix-free) | "
+              "10 eigenpairs | peak GiB |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  std::fflush(stdout);
+  for (double h : steps)
+    for (int t : threads) {
+      const pid_t pid = fork();
+      if (pid == 0) {
+        try {
+          run(h, t, eigen_min_h, memory_limit);
+        } catch (const std::exception& e) {
+          std::printf("| %g | %d | error: %s |\n", h, t, e.what());
+        }
+        std::fflush(stdout);
+        _exit(0);
+      }
+      int status = 0;
+      waitpid(pid, &status, 0);
+    }
+  return 0;
+}

@@ -1,0 +1,353 @@
+#include "digilap/matrix_free.hpp"
+
+#include "digilap/error.hpp"
+#include "elements.hpp"
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Spectra/SymEigsSolver.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace digilap {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+
+// Smallest order p whose Hermite truncation error, relative to the sources' total weight,
+// is below epsilon. With sources within rho * delta of the box centre, Cramer's inequality
+// |h_n(u)| <= K 2^(n/2) sqrt(n!) (K < 1.09) bounds the tail by
+// K (sqrt(2) rho)^p / sqrt(p!) / (1 - sqrt(2) rho).
+int hermite_order(double rho, double epsilon) {
+  const double q = std::sqrt(2.0) * rho;
+  double term = 1.0;  // q^p / sqrt(p!)
+  for (int p = 1; p < 64; ++p) {
+    term *= q / std::sqrt(static_cast<double>(p));
+    if (1.09 * term / (1 - q) <= epsilon) return p;
+  }
+  return 63;  // the moment buffers hold 64
+}
+}  // namespace
+
+MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures,
+                                         const HeatLaplacianOptions& options, double epsilon) {
+  if (options.distance != DistanceMode::Geodesic)
+    throw Error("MatrixFreeLaplacian: only the geodesic distance is a convolution along the contour");
+  if (options.richardson) throw Error("MatrixFreeLaplacian: Richardson extrapolation is not available matrix-free");
+  if (!(epsilon > 0 && epsilon < 1)) {
+    std::ostringstream msg;
+    msg << "MatrixFreeLaplacian: epsilon must be in (0, 1), got " << epsilon;
+    throw Error(msg.str());
+  }
+  if (!(options.k > 0) || !std::isfinite(options.k)) throw Error("MatrixFreeLaplacian: k must be > 0 and finite");
+  t_ = heat_time(contours.h, options);
+  cut_ = options.k * std::sqrt(t_);
+  delta_ = std::sqrt(4 * t_);
+  box_ = 0.5 * delta_;  // sources within a quarter of delta of their box centre
+  order_ = hermite_order(0.25, epsilon);
+  scale_ = 1.0 / (t_ * std::sqrt(4 * kPi * t_));
+
+  const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
+  mass_ = e.mu;
+  s_ = e.s;
+  positions_ = e.positions;
+  offset_ = e.offset;
+  const Eigen::Index n_all = mass_.size();
+  back_.assign(static_cast<std::size_t>(n_all), 0);
+  fwd_.assign(static_cast<std::size_t>(n_all), 0);
+  for (std::size_t c = 0; c + 1 < offset_.size(); ++c) {
+    Contour ct;
+    ct.offset = offset_[c];
+    ct.n = offset_[c + 1] - offset_[c];
+    ct.P = e.length[c];
+    const double* s = s_.data() + ct.offset;
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index i = 0; i < ct.n; ++i) {
+      const detail::GeodesicWindow w = detail::geodesic_window(s, ct.n, i, ct.P, cut_);
+      back_[ct.offset + i] = w.back;
+      fwd_[ct.offset + i] = w.fwd;
+    }
+    ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / box_));
+    ct.direct = cut_ >= 0.5 * ct.P || ct.n < 64 || ct.boxes < 8;
+    if (!ct.direct) {
+      ct.box_of.resize(static_cast<std::size_t>(ct.n));
+      ct.box_start.assign(static_cast<std::size_t>(ct.boxes + 1), ct.n);
+      for (Eigen::Index j = ct.n - 1; j >= 0; --j) {
+        const Eigen::Index k = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(s[j] / box_), 0, ct.boxes - 1);
+        ct.box_of[j] = k;
+        ct.box_start[k] = j;
+      }
+      // Empty boxes start where the next non-empty one does.
+      for (Eigen::Index k = ct.boxes - 1; k >= 0; --k) ct.box_start[k] = std::min(ct.box_start[k], ct.box_start[k + 1]);
+    }
+    contours_.push_back(std::move(ct));
+  }
+  transform_of_mass_.resize(n_all);
+  gauss_transform(mass_.data(), transform_of_mass_.data());
+  // L_ii = -c sum_{j != i} G(d_ij) mu_j; the transform includes j = i with G(0) = 1.
+  diagonal_ = -scale_ * (transform_of_mass_ - mass_);
+}
+
+void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
+  const int p = order_;
+  for (const Contour& ct : contours_) {
+    const double* s = s_.data() + ct.offset;
+    const double* fc = f + ct.offset;
+    double* oc = out + ct.offset;
+    const Eigen::Index n = ct.n;
+    const double inv_4t = 1.0 / (4 * t_);
+    if (ct.direct) {
+#pragma omp parallel for schedule(dynamic, 64)
+      for (Eigen::Index i = 0; i < n; ++i) {
+        double sum = 0;
+        for (Eigen::Index m = -back_[ct.offset + i]; m <= fwd_[ct.offset + i]; ++m) {
+          const Eigen::Index j = ((i + m) % n + n) % n;
+          const double d = detail::cyclic_distance(s[i], s[j], ct.P);
+          sum += std::exp(-d * d * inv_4t) * fc[j];
+        }
+        oc[i] = sum;
+      }
+      continue;
+    }
+    // 1. Prefix sums, box by box, of the Hermite moments f_j v_j^n / n!, v_j = (s_j - c_k) / delta.
+    // Reused between products: allocating (and page-faulting) N x p doubles each time cost
+    // more than the transform with two threads.
+    prefix_.resize(std::max(prefix_.size(), static_cast<std::size_t>(n) * p));
+    double* Q = prefix_.data();
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index k = 0; k < ct.boxes; ++k) {
+      const double centre = (k + 0.5) * box_;
+      double acc[64] = {0};
+      for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
+        const double v = (s[j] - centre) / delta_;
+        double term = fc[j];
+        for (int q = 0; q < p; ++q) {
+          acc[q] += term;
+          Q[static_cast<std::size_t>(j) * p + q] = acc[q];
+          term *= v / (q + 1);
+        }
+      }
+    }
+    // 2. Each target: its window as runs of consecutive sources, each run's moments from the
+    // prefix sums of its box, evaluated with the Hermite functions h_n(u) = H_n(u) exp(-u^2).
+#pragma omp parallel
+    {
+      double moments[64];
+#pragma omp for schedule(static)
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+        double sum = 0;
+        auto run = [&](Eigen::Index a, Eigen::Index b, double shift) {  // sources a..b, at s + shift
+          for (Eigen::Index k = ct.box_of[a]; k <= ct.box_of[b]; ++k) {
+            const Eigen::Index first = std::max(a, ct.box_start[k]), last = std::min(b, ct.box_start[k + 1] - 1);
+            if (first > last) continue;
+            const double* qa = Q + static_cast<std::size_t>(last) * p;
+            const double* qb = first > ct.box_start[k] ? Q + static_cast<std::size_t>(first - 1) * p : nullptr;
+            for (int q = 0; q < p; ++q) moments[q] = qb ? qa[q] - qb[q] : qa[q];
+            const double u = (s[i] - ((k + 0.5) * box_ + shift)) / delta_;
+            double h0 = std::exp(-u * u), h1 = 2 * u * h0;
+            double acc = moments[0] * h0 + (p > 1 ? moments[1] * h1 : 0.0);
+            for (int q = 1; q + 1 < p; ++q) {
+              const double h2 = 2 * u * h1 - 2 * q * h0;
+              acc += moments[q + 1] * h2;
+              h0 = h1;
+              h1 = h2;
+            }
+            sum += acc;
+          }
+        };
+        if (lo < 0) run(lo + n, n - 1, -ct.P);  // behind i across the start of the contour
+        run(std::max<Eigen::Index>(lo, 0), std::min(hi, n - 1), 0.0);
+        if (hi >= n) run(0, hi - n, ct.P);      // ahead of i across the end
+        oc[i] = sum;
+      }
+    }
+  }
+}
+
+void MatrixFreeLaplacian::apply(const double* x, double* y) const {
+  const Eigen::Index n = rows();
+  Eigen::VectorXd f(n);
+  for (Eigen::Index i = 0; i < n; ++i) f[i] = mass_[i] * x[i];
+  Eigen::VectorXd g(n);
+  gauss_transform(f.data(), g.data());
+  // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
+  for (Eigen::Index i = 0; i < n; ++i) y[i] = scale_ * (g[i] - x[i] * transform_of_mass_[i]);
+}
+
+Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
+  if (x.size() != rows()) throw Error("MatrixFreeLaplacian: the vector has the wrong size");
+  Eigen::VectorXd y(rows());
+  apply(x.data(), y.data());
+  return y;
+}
+
+Eigen::VectorXd MatrixFreeLaplacian::apply_stiffness(const Eigen::VectorXd& x) const {
+  return mass_.cwiseProduct(*this * x);
+}
+
+// --- Spectrum ------------------------------------------------------------------------------
+
+namespace {
+
+// y = c x - C x with C = M^(1/2) (-L) M^(-1/2) (symmetric, as A = M L is).
+class ShiftedSymmetricOp {
+public:
+  using Scalar = double;
+  ShiftedSymmetricOp(const MatrixFreeLaplacian& op, double c)
+      : op_(op), c_(c), sqrt_mass_(op.mass().cwiseSqrt()), z_(op.rows()), w_(op.rows()) {}
+  Eigen::Index rows() const { return op_.rows(); }
+  Eigen::Index cols() const { return op_.rows(); }
+  void perform_op(const double* x_in, double* y_out) const {
+    Eigen::Map<const Eigen::VectorXd> x(x_in, rows());
+    Eigen::Map<Eigen::VectorXd> y(y_out, rows());
+    z_ = x.cwiseQuotient(sqrt_mass_);
+    op_.apply(z_.data(), w_.data());
+    y = c_ * x + sqrt_mass_.cwiseProduct(w_);
+  }
+
+private:
+  const MatrixFreeLaplacian& op_;
+  double c_;
+  Eigen::VectorXd sqrt_mass_;
+  mutable Eigen::VectorXd z_, w_;
+};
+
+}  // namespace
+
+Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
+  const Eigen::Index n = op.rows();
+  if (o.count < 1 || o.count > n - 1)
+    throw Error("smallest_eigenpairs: count must be in [1, " + std::to_string(n - 1) + "], got " + std::to_string(o.count));
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!(op.mass()[i] > 0))
+      throw Error("smallest_eigenpairs: the mass of row " + std::to_string(i) + " is not > 0; M must be definite");
+  // Gershgorin on L: every eigenvalue of -L lies in [0, 2 max|L_ii|].
+  const double c = 2.0 * op.diagonal().cwiseAbs().maxCoeff();
+  ShiftedSymmetricOp shifted(op, c);
+  const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(4 * o.count, 40)));
+  Spectra::SymEigsSolver<ShiftedSymmetricOp> eigs(shifted, o.count, ncv);
+  eigs.init();
+  const Eigen::Index converged = eigs.compute(Spectra::SortRule::LargestAlge, o.max_iterations, o.tolerance,
+                                              Spectra::SortRule::LargestAlge);
+  if (eigs.info() != Spectra::CompInfo::Successful || converged < o.count) {
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs (matrix-free): Spectra did not converge (" << converged << " of " << o.count
+        << " eigenpairs after " << eigs.num_iterations() << " restarts); raise max_iterations or the subspace size ("
+        << ncv << ")";
+    throw Error(msg.str());
+  }
+  Spectrum s;
+  s.eigenvalues = c - eigs.eigenvalues().array();  // descending theta = ascending lambda
+  s.eigenvectors = op.mass().cwiseSqrt().cwiseInverse().asDiagonal() * eigs.eigenvectors();  // M-orthonormal
+  s.iterations = static_cast<int>(eigs.num_iterations());
+  s.operations = static_cast<int>(eigs.num_operations());
+  return s;
+}
+
+}  // namespace digilap
+
+// --- Conjugate gradient on the matrix-free operator ------------------------------------------
+// Eigen's iterative solvers accept any matrix type that provides a product with a vector: the
+// wrapper below is (M - dt A) applied through MatrixFreeLaplacian (Eigen's "matrix-free solvers").
+
+namespace digilap {
+class HeatStepMatrix;
+}
+
+namespace Eigen::internal {
+template <>
+struct traits<digilap::HeatStepMatrix> : public traits<Eigen::SparseMatrix<double>> {};
+}  // namespace Eigen::internal
+
+namespace digilap {
+
+class HeatStepMatrix : public Eigen::EigenBase<HeatStepMatrix> {
+public:
+  using Scalar = double;
+  using RealScalar = double;
+  using StorageIndex = int;
+  enum { ColsAtCompileTime = Eigen::Dynamic, MaxColsAtCompileTime = Eigen::Dynamic, IsRowMajor = false };
+  HeatStepMatrix(const MatrixFreeLaplacian& op, double dt) : op_(op), dt_(dt) {}
+  Eigen::Index rows() const { return op_.rows(); }
+  Eigen::Index cols() const { return op_.rows(); }
+  template <typename Rhs>
+  Eigen::Product<HeatStepMatrix, Rhs, Eigen::AliasFreeProduct> operator*(const Eigen::MatrixBase<Rhs>& x) const {
+    return Eigen::Product<HeatStepMatrix, Rhs, Eigen::AliasFreeProduct>(*this, x.derived());
+  }
+  // (M - dt M L) x = M (x - dt L x)
+  Eigen::VectorXd multiply(const Eigen::VectorXd& x) const { return op_.mass().cwiseProduct(x - dt_ * (op_ * x)); }
+  // Jacobi: the diagonal of M - dt A is mu_i (1 - dt L_ii).
+  Eigen::VectorXd diagonal_values() const {
+    return op_.mass().cwiseProduct((Eigen::VectorXd::Ones(rows()) - dt_ * op_.diagonal()));
+  }
+
+private:
+  const MatrixFreeLaplacian& op_;
+  double dt_;
+};
+
+/// Jacobi preconditioner from the wrapper's diagonal (Eigen's DiagonalPreconditioner needs
+/// stored coefficients).
+class JacobiPreconditioner {
+public:
+  JacobiPreconditioner() = default;
+  template <typename M>
+  explicit JacobiPreconditioner(const M& m) { compute(m); }
+  template <typename M>
+  JacobiPreconditioner& analyzePattern(const M&) { return *this; }
+  template <typename M>
+  JacobiPreconditioner& factorize(const M& m) { return compute(m); }
+  template <typename M>
+  JacobiPreconditioner& compute(const M& m) {
+    inverse_ = m.diagonal_values().cwiseInverse();
+    return *this;
+  }
+  template <typename Rhs>
+  Eigen::VectorXd solve(const Rhs& b) const { return inverse_.cwiseProduct(b); }
+  Eigen::ComputationInfo info() const { return Eigen::Success; }
+
+private:
+  Eigen::VectorXd inverse_;
+};
+
+}  // namespace digilap
+
+namespace Eigen::internal {
+template <typename Rhs>
+struct generic_product_impl<digilap::HeatStepMatrix, Rhs, SparseShape, DenseShape, GemvProduct>
+    : generic_product_impl_base<digilap::HeatStepMatrix, Rhs, generic_product_impl<digilap::HeatStepMatrix, Rhs>> {
+  using Scalar = typename Product<digilap::HeatStepMatrix, Rhs>::Scalar;
+  template <typename Dest>
+  static void scaleAndAddTo(Dest& dst, const digilap::HeatStepMatrix& lhs, const Rhs& rhs, const Scalar& alpha) {
+    dst.noalias() += alpha * lhs.multiply(rhs);
+  }
+};
+}  // namespace Eigen::internal
+
+namespace digilap {
+
+Eigen::VectorXd heat_step_cg(const MatrixFreeLaplacian& op, const Eigen::VectorXd& u, double dt, double tolerance,
+                             int* iterations) {
+  if (!(dt > 0) || !std::isfinite(dt)) throw Error("heat_step_cg: dt must be > 0 and finite");
+  if (u.size() != op.rows()) throw Error("heat_step_cg: the vector has the wrong size");
+  for (Eigen::Index i = 0; i < op.rows(); ++i)
+    if (!(op.mass()[i] > 0)) throw Error("heat_step_cg: the mass of row " + std::to_string(i) + " is not > 0");
+  const HeatStepMatrix K(op, dt);
+  Eigen::ConjugateGradient<HeatStepMatrix, Eigen::Lower | Eigen::Upper, JacobiPreconditioner> cg;
+  cg.setTolerance(tolerance);
+  cg.setMaxIterations(1000);
+  cg.compute(K);
+  const Eigen::VectorXd next = cg.solveWithGuess(op.mass().cwiseProduct(u), u);
+  if (iterations) *iterations = static_cast<int>(cg.iterations());
+  if (cg.info() != Eigen::Success) {
+    std::ostringstream msg;
+    msg << "heat_step_cg: conjugate gradient did not converge (" << cg.iterations() << " iterations, error "
+        << cg.error() << ")";
+    throw Error(msg.str());
+  }
+  return next;
+}
+
+}  // namespace digilap
