@@ -44,15 +44,6 @@ struct Crossing {
 
 DigitalSet::DigitalSet(double h) : h_(h) { check_step(h); }
 
-const Run* DigitalSet::row_runs_begin(std::int32_t j) const {
-  if (j < row_begin() || j >= row_end()) return runs_.data();
-  return runs_.data() + row_offset_[j - row_begin_];
-}
-const Run* DigitalSet::row_runs_end(std::int32_t j) const {
-  if (j < row_begin() || j >= row_end()) return runs_.data();
-  return runs_.data() + row_offset_[j - row_begin_ + 1];
-}
-
 bool DigitalSet::contains(std::int32_t i, std::int32_t j) const {
   const Run* b = row_runs_begin(j);
   const Run* e = row_runs_end(j);

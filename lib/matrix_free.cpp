@@ -22,7 +22,7 @@ constexpr double kPi = 3.14159265358979323846;
 int hermite_order(double rho, double epsilon) {
   const double q = std::sqrt(2.0) * rho;
   double term = 1.0;  // q^p / sqrt(p!)
-  for (int p = 1; p < 64; ++p) {
+  for (int p = 1; p < 63; ++p) {
     term *= q / std::sqrt(static_cast<double>(p));
     if (1.09 * term / (1 - q) <= epsilon) return p;
   }
@@ -45,7 +45,9 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   cut_ = options.k * std::sqrt(t_);
   delta_ = std::sqrt(4 * t_);
   box_ = 0.5 * delta_;  // sources within a quarter of delta of their box centre
-  order_ = hermite_order(0.25, epsilon);
+  // Sources and targets both lie within a quarter of delta of their box centres; the Hermite
+  // and the Taylor truncations each get a tenth of the budget.
+  order_ = hermite_order(0.25, 0.1 * epsilon);
   scale_ = 1.0 / (t_ * std::sqrt(4 * kPi * t_));
 
   const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
@@ -115,52 +117,107 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
     // more than the transform with two threads.
     prefix_.resize(std::max(prefix_.size(), static_cast<std::size_t>(n) * p));
     double* Q = prefix_.data();
+    double inverse_factorial[64];
+    inverse_factorial[0] = 1;
+    for (int q = 1; q < p; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
+    const double inv_delta = 1.0 / delta_;
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < ct.boxes; ++k) {
       const double centre = (k + 0.5) * box_;
       double acc[64] = {0};
       for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
-        const double v = (s[j] - centre) / delta_;
-        double term = fc[j];
+        const double v = (s[j] - centre) * inv_delta;
+        double power = fc[j];  // f_j v^q; 1/q! from a table (a division per term was the hot spot)
+        double* row = Q + static_cast<std::size_t>(j) * p;
         for (int q = 0; q < p; ++q) {
-          acc[q] += term;
-          Q[static_cast<std::size_t>(j) * p + q] = acc[q];
-          term *= v / (q + 1);
+          acc[q] += power * inverse_factorial[q];
+          row[q] = acc[q];
+          power *= v;
         }
       }
     }
-    // 2. Each target: its window as runs of consecutive sources, each run's moments from the
-    // prefix sums of its box, evaluated with the Hermite functions h_n(u) = H_n(u) exp(-u^2).
+    // 2. Targets box by box. The sources every target of a box sees (the "core" of their
+    // windows) are gathered once into a Taylor expansion about the box centre (Hermite to
+    // Taylor translation, O(p^2) per source box): each target then pays O(p) for them. The few
+    // sources near the ends of its own window (the "edges", where the windows of the box's
+    // targets differ) are evaluated from their Hermite moments, as is the whole window when the
+    // core is empty. The window of every row is thus summed exactly as the explicit matrix does.
+    const double P = ct.P;
+    auto for_segments = [&](Eigen::Index a, Eigen::Index b, auto&& segment) {  // unwrapped a..b
+      auto piece = [&](Eigen::Index pa, Eigen::Index pb, double shift) {
+        for (Eigen::Index k = ct.box_of[pa]; k <= ct.box_of[pb]; ++k) {
+          const Eigen::Index first = std::max(pa, ct.box_start[k]), last = std::min(pb, ct.box_start[k + 1] - 1);
+          if (first <= last) segment(k, first, last, shift);
+        }
+      };
+      if (a > b) return;
+      if (a < 0) piece(a + n, std::min<Eigen::Index>(b, -1) + n, -P);  // behind the contour's start
+      if (b >= 0 && a <= n - 1) piece(std::max<Eigen::Index>(a, 0), std::min(b, n - 1), 0.0);
+      if (b >= n) piece(std::max(a, n) - n, b - n, P);                  // past its end
+    };
+    auto moments_of = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double* m) {
+      const double* qa = Q + static_cast<std::size_t>(last) * p;
+      if (first > ct.box_start[k]) {
+        const double* qb = Q + static_cast<std::size_t>(first - 1) * p;
+        for (int q = 0; q < p; ++q) m[q] = qa[q] - qb[q];
+      } else {
+        for (int q = 0; q < p; ++q) m[q] = qa[q];
+      }
+    };
+    // h_0 .. h_{count-1} at u: h_n(u) = H_n(u) exp(-u^2).
+    auto hermite = [](double u, int count, double* h) {
+      h[0] = std::exp(-u * u);
+      if (count > 1) h[1] = 2 * u * h[0];
+      for (int q = 1; q + 1 < count; ++q) h[q + 1] = 2 * u * h[q] - 2 * q * h[q - 1];
+    };
 #pragma omp parallel
     {
-      double moments[64];
-#pragma omp for schedule(static)
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
-        double sum = 0;
-        auto run = [&](Eigen::Index a, Eigen::Index b, double shift) {  // sources a..b, at s + shift
-          for (Eigen::Index k = ct.box_of[a]; k <= ct.box_of[b]; ++k) {
-            const Eigen::Index first = std::max(a, ct.box_start[k]), last = std::min(b, ct.box_start[k + 1] - 1);
-            if (first > last) continue;
-            const double* qa = Q + static_cast<std::size_t>(last) * p;
-            const double* qb = first > ct.box_start[k] ? Q + static_cast<std::size_t>(first - 1) * p : nullptr;
-            for (int q = 0; q < p; ++q) moments[q] = qb ? qa[q] - qb[q] : qa[q];
-            const double u = (s[i] - ((k + 0.5) * box_ + shift)) / delta_;
-            double h0 = std::exp(-u * u), h1 = 2 * u * h0;
-            double acc = moments[0] * h0 + (p > 1 ? moments[1] * h1 : 0.0);
-            for (int q = 1; q + 1 < p; ++q) {
-              const double h2 = 2 * u * h1 - 2 * q * h0;
-              acc += moments[q + 1] * h2;
-              h0 = h1;
-              h1 = h2;
+      double moments[64], h[128], local[64];
+#pragma omp for schedule(dynamic, 4)
+      for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
+        const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
+        if (i0 > i1) continue;
+        const double centre = (kt + 0.5) * box_;
+        Eigen::Index core_lo = -n, core_hi = 2 * n;  // the intersection of the windows of i0..i1
+        for (Eigen::Index i = i0; i <= i1; ++i) {
+          core_lo = std::max(core_lo, i - back_[ct.offset + i]);
+          core_hi = std::min(core_hi, i + fwd_[ct.offset + i]);
+        }
+        const bool core = core_lo <= core_hi;
+        for (int q = 0; q < p; ++q) local[q] = 0;
+        if (core)
+          for_segments(core_lo, core_hi, [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
+            moments_of(k, first, last, moments);
+            hermite((centre - ((k + 0.5) * box_ + shift)) / delta_, 2 * p - 1, h);
+            // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
+            double factor = 1.0;
+            for (int m = 0; m < p; ++m) {
+              double sum = 0;
+              for (int q = 0; q < p; ++q) sum += moments[q] * h[q + m];
+              local[m] += factor * sum;
+              factor *= -1.0 / (m + 1);
             }
-            sum += acc;
+          });
+        for (Eigen::Index i = i0; i <= i1; ++i) {
+          double sum = 0;
+          auto direct = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
+            moments_of(k, first, last, moments);
+            hermite((s[i] - ((k + 0.5) * box_ + shift)) / delta_, p, h);
+            for (int q = 0; q < p; ++q) sum += moments[q] * h[q];
+          };
+          const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+          if (core) {
+            const double w = (s[i] - centre) / delta_;
+            double taylor = 0;
+            for (int m = p - 1; m >= 0; --m) taylor = taylor * w + local[m];
+            sum += taylor;
+            for_segments(lo, core_lo - 1, direct);
+            for_segments(core_hi + 1, hi, direct);
+          } else {
+            for_segments(lo, hi, direct);
           }
-        };
-        if (lo < 0) run(lo + n, n - 1, -ct.P);  // behind i across the start of the contour
-        run(std::max<Eigen::Index>(lo, 0), std::min(hi, n - 1), 0.0);
-        if (hi >= n) run(0, hi - n, ct.P);      // ahead of i across the end
-        oc[i] = sum;
+          oc[i] = sum;
+        }
       }
     }
   }

@@ -56,3 +56,14 @@ TEST(Convergence, VariantsByNameAndClearErrors) {
   o.steps.clear();
   EXPECT_THROW(convergence_sweep(Circle(), ambient_x2(), o), Error);
 }
+
+TEST(Convergence, RichardsonMeetsTheOnePercentTargetOnTheFlower) {
+  // Issue 4's target: g = x^2 on the flower, default c_t, k, k_R: at most 1% at h = 0.001 and a
+  // fitted slope of at least 0.6 over h = 0.1 .. 0.001 (docs/accuracy.md: 0.80%, slope 1.02).
+  // The plain default operator gives 1.93% there: its O(t) bias is what Richardson cancels.
+  ConvergenceOptions o;
+  o.variants = {operator_variant("richardson-euclidean")};
+  const ConvergenceResult r = convergence_sweep(Flower(), ambient_x2(), o);
+  EXPECT_LE(r.of("richardson-euclidean").back().relative_max_error, 0.01);
+  EXPECT_GE(r.slope("richardson-euclidean"), 0.6);
+}

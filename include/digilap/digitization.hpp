@@ -31,8 +31,15 @@ public:
   std::int32_t row_begin() const { return row_begin_; }
   std::int32_t row_end() const { return row_begin_ + static_cast<std::int32_t>(row_offset_.size()) - 1; }
   /// The runs of row j, sorted, disjoint and not touching (an empty range outside the rows).
-  const Run* row_runs_begin(std::int32_t j) const;
-  const Run* row_runs_end(std::int32_t j) const;
+  /// Inline: the II normals call these O(R/h) times per linel.
+  const Run* row_runs_begin(std::int32_t j) const {
+    if (j < row_begin() || j >= row_end()) return runs_.data();
+    return runs_.data() + row_offset_[static_cast<std::size_t>(j - row_begin_)];
+  }
+  const Run* row_runs_end(std::int32_t j) const {
+    if (j < row_begin() || j >= row_end()) return runs_.data();
+    return runs_.data() + row_offset_[static_cast<std::size_t>(j - row_begin_) + 1];
+  }
   std::size_t run_count() const { return runs_.size(); }
 
   bool contains(std::int32_t i, std::int32_t j) const;
