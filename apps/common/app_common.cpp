@@ -133,6 +133,18 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   return fe;
 }
 
+ContourOperator build_operator(const FrontEnd& fe, const HeatLaplacianOptions& options, Progress& progress) {
+  progress.start("operator");
+  ContourOperator op = heat_laplacian(fe.contours, fe.measures, options);
+  progress.finish();
+  return op;
+}
+
+void add_output_options(CLI::App& app, std::string& out_dir, bool& quiet) {
+  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
+  app.add_flag("--quiet,-q", quiet, "No progress on stderr");
+}
+
 int guarded_main(const std::function<int()>& body) {
   try {
     return body();

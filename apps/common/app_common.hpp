@@ -59,6 +59,12 @@ struct FrontEnd {
 /// Shape or image -> digital set -> contours -> normals -> measures, timed stage by stage.
 FrontEnd run_front_end(const FrontEndOptions& options, Progress& progress);
 
+/// The heat Laplacian of the front end's contours, timed as the stage "operator".
+ContourOperator build_operator(const FrontEnd& fe, const HeatLaplacianOptions& options, Progress& progress);
+
+/// --out DIR and --quiet, shared by every app.
+void add_output_options(CLI::App& app, std::string& out_dir, bool& quiet);
+
 /// Runs `body`, turning digilap::Error and std::exception into "error: ..." and exit code 1.
 int guarded_main(const std::function<int()>& body);
 

@@ -35,8 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("--sampling", sampling, "Where g is sampled: closest (orthogonal projection) or radial")
       ->check(CLI::IsMember({"closest", "radial"}))
       ->capture_default_str();
-  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
-  app.add_flag("--quiet,-q", quiet, "No progress on stderr");
+  app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {

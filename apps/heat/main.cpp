@@ -36,8 +36,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--snapshots", snapshots, "Snapshots written and drawn (at equal times, tau = 0 included)")
       ->capture_default_str();
-  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
-  app.add_flag("--quiet,-q", quiet, "No progress on stderr");
+  app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
@@ -46,9 +45,7 @@ int main(int argc, char** argv) {
     if (snapshots < 2 || snapshots > steps + 1) throw Error("--snapshots must be in [2, steps + 1]");
     app::Progress progress(quiet);
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
-    progress.start("operator");
-    const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
-    progress.finish();
+    const ContourOperator op = app::build_operator(fe, op_options, progress);
 
     // Initial temperature on contour 0 (the others start cold).
     const Eigen::Index n0 = op.row_offset[1];

@@ -14,16 +14,13 @@ int main(int argc, char** argv) {
   bool quiet = false;
   app::add_front_end_options(app, fe_options);
   app::add_operator_options(app, op_options);
-  app.add_option("--out", out_dir, "Output directory")->capture_default_str();
-  app.add_flag("--quiet,-q", quiet, "No progress on stderr");
+  app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
-    progress.start("operator");
-    const ContourOperator op = heat_laplacian(fe.contours, fe.measures, op_options);
-    progress.finish();
+    const ContourOperator op = app::build_operator(fe, op_options, progress);
     progress.start("write");
     const auto paths = save_operator(op, out_dir);
     progress.finish();
