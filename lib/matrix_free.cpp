@@ -173,6 +173,12 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
 #pragma omp parallel
     {
       double moments[64], h[128], local[64];
+      struct Job {
+        Eigen::Index target, box, first, last;
+        double u;
+      };
+      constexpr int kBatch = 8;
+      std::vector<Job> jobs;
 #pragma omp for schedule(dynamic, 4)
       for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
         const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
@@ -198,25 +204,51 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
               factor *= -1.0 / (m + 1);
             }
           });
+        // Window ends are queued, then evaluated kBatch at a time: the Hermite recurrence is
+        // a chain of dependent multiply-adds, and running kBatch independent chains side by
+        // side (vectorized) hides its latency, which otherwise dominates.
+        jobs.clear();
         for (Eigen::Index i = i0; i <= i1; ++i) {
-          double sum = 0;
-          auto direct = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
-            moments_of(k, first, last, moments);
-            hermite((s[i] - ((k + 0.5) * box_ + shift)) / delta_, p, h);
-            for (int q = 0; q < p; ++q) sum += moments[q] * h[q];
+          auto queue = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
+            jobs.push_back({i, k, first, last, (s[i] - ((k + 0.5) * box_ + shift)) / delta_});
           };
           const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+          double sum = 0;
           if (core) {
             const double w = (s[i] - centre) / delta_;
-            double taylor = 0;
-            for (int m = p - 1; m >= 0; --m) taylor = taylor * w + local[m];
-            sum += taylor;
-            for_segments(lo, core_lo - 1, direct);
-            for_segments(core_hi + 1, hi, direct);
+            for (int m = p - 1; m >= 0; --m) sum = sum * w + local[m];
+            for_segments(lo, core_lo - 1, queue);
+            for_segments(core_hi + 1, hi, queue);
           } else {
-            for_segments(lo, hi, direct);
+            for_segments(lo, hi, queue);
           }
           oc[i] = sum;
+        }
+        for (std::size_t b = 0; b < jobs.size(); b += kBatch) {
+          const int lanes = static_cast<int>(std::min<std::size_t>(kBatch, jobs.size() - b));
+          double mom[64][kBatch] = {}, u[kBatch] = {}, h0[kBatch], h1[kBatch], acc[kBatch];
+          for (int l = 0; l < lanes; ++l) {
+            const Job& job = jobs[b + l];
+            moments_of(job.box, job.first, job.last, moments);
+            for (int q = 0; q < p; ++q) mom[q][l] = moments[q];
+            u[l] = job.u;
+          }
+          for (int l = 0; l < kBatch; ++l) h0[l] = std::exp(-u[l] * u[l]);
+#pragma omp simd
+          for (int l = 0; l < kBatch; ++l) {
+            h1[l] = 2 * u[l] * h0[l];
+            acc[l] = mom[0][l] * h0[l] + mom[1][l] * h1[l];
+          }
+          for (int q = 1; q + 1 < p; ++q) {
+#pragma omp simd
+            for (int l = 0; l < kBatch; ++l) {
+              const double h2 = 2 * u[l] * h1[l] - 2 * q * h0[l];
+              acc[l] += mom[q + 1][l] * h2;
+              h0[l] = h1[l];
+              h1[l] = h2;
+            }
+          }
+          for (int l = 0; l < lanes; ++l) oc[jobs[b + l].target] += acc[l];
         }
       }
     }
