@@ -1,6 +1,7 @@
 #include "digilap/matrix_free.hpp"
 
 #include "digilap/error.hpp"
+#include "eigen_checks.hpp"
 #include "elements.hpp"
 
 #include <Eigen/IterativeLinearSolvers>
@@ -307,11 +308,7 @@ private:
 
 Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
   const Eigen::Index n = op.rows();
-  if (o.count < 1 || o.count > n - 1)
-    throw Error("smallest_eigenpairs: count must be in [1, " + std::to_string(n - 1) + "], got " + std::to_string(o.count));
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!(op.mass()[i] > 0))
-      throw Error("smallest_eigenpairs: the mass of row " + std::to_string(i) + " is not > 0; M must be definite");
+  detail::check_eigen_request(op.mass(), o.count);
   // Gershgorin on L: every eigenvalue of -L lies in [0, 2 max|L_ii|].
   const double c = 2.0 * op.diagonal().cwiseAbs().maxCoeff();
   ShiftedSymmetricOp shifted(op, c);
@@ -320,13 +317,7 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   eigs.init();
   const Eigen::Index converged = eigs.compute(Spectra::SortRule::LargestAlge, o.max_iterations, o.tolerance,
                                               Spectra::SortRule::LargestAlge);
-  if (eigs.info() != Spectra::CompInfo::Successful || converged < o.count) {
-    std::ostringstream msg;
-    msg << "smallest_eigenpairs (matrix-free): Spectra did not converge (" << converged << " of " << o.count
-        << " eigenpairs after " << eigs.num_iterations() << " restarts); raise max_iterations or the subspace size ("
-        << ncv << ")";
-    throw Error(msg.str());
-  }
+  detail::require_converged(eigs, converged, o.count, ncv);
   Spectrum s;
   s.eigenvalues = c - eigs.eigenvalues().array();  // descending theta = ascending lambda
   s.eigenvectors = op.mass().cwiseSqrt().cwiseInverse().asDiagonal() * eigs.eigenvectors();  // M-orthonormal

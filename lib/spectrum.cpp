@@ -1,6 +1,7 @@
 #include "digilap/spectrum.hpp"
 
 #include "digilap/error.hpp"
+#include "eigen_checks.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <Spectra/SymGEigsShiftSolver.h>
@@ -70,13 +71,7 @@ Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass,
   if (A.rows() != n || A.cols() != n)
     throw Error("smallest_eigenpairs: A is " + std::to_string(A.rows()) + "x" + std::to_string(A.cols()) +
                 " but there are " + std::to_string(n) + " masses");
-  if (o.count < 1 || o.count > n - 1)
-    throw Error("smallest_eigenpairs: count must be in [1, " + std::to_string(n - 1) + "], got " + std::to_string(o.count));
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!(mass[i] > 0))
-      throw Error("smallest_eigenpairs: the mass of row " + std::to_string(i) +
-                  " is not > 0 (a zero measure: the linel's II normal is orthogonal to it); "
-                  "M must be definite: use pointels or a smaller k_R");
+  detail::check_eigen_request(mass, o.count);
   // A shift just below 0: -A - sigma M is then definite, and the eigenvalue 0 of each contour
   // stays well separated from the shift relative to the first non-zero one (about (2 pi / P)^2).
   const double sigma = -1e-2 * (2 * kPi / mass.sum()) * (2 * kPi / mass.sum());
@@ -89,13 +84,7 @@ Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass,
   eigs.init();
   const Eigen::Index converged =
       eigs.compute(Spectra::SortRule::LargestMagn, o.max_iterations, o.tolerance, Spectra::SortRule::SmallestAlge);
-  if (eigs.info() != Spectra::CompInfo::Successful || converged < o.count) {
-    std::ostringstream msg;
-    msg << "smallest_eigenpairs: Spectra did not converge (" << converged << " of " << o.count
-        << " eigenpairs after " << eigs.num_iterations() << " restarts); raise max_iterations or the subspace size ("
-        << ncv << ")";
-    throw Error(msg.str());
-  }
+  detail::require_converged(eigs, converged, o.count, ncv);
   Spectrum s;
   s.eigenvalues = eigs.eigenvalues();
   s.eigenvectors = eigs.eigenvectors();
