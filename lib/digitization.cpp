@@ -11,13 +11,7 @@ namespace digilap {
 
 namespace {
 
-void check_step(double h) {
-  if (!(h > 0) || !std::isfinite(h)) {
-    std::ostringstream msg;
-    msg << "grid step h must be > 0 and finite, got " << h;
-    throw Error(msg.str());
-  }
-}
+void check_step(double h) { require_positive("grid step h", h); }
 
 // Sorts runs and merges the overlapping or touching ones.
 void normalize(std::vector<Run>& runs) {

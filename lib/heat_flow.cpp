@@ -10,13 +10,7 @@
 namespace digilap {
 
 namespace {
-void check_step(double dt) {
-  if (!(dt > 0) || !std::isfinite(dt)) {
-    std::ostringstream msg;
-    msg << "HeatFlow: the time step dt must be > 0 and finite, got " << dt;
-    throw Error(msg.str());
-  }
-}
+void check_step(double dt) { require_positive("HeatFlow: the time step dt", dt); }
 }  // namespace
 
 HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme) : dt_(dt) {

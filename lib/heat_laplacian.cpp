@@ -21,13 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-void check_positive(const char* what, double v) {
-  if (!(v > 0) || !std::isfinite(v)) {
-    std::ostringstream msg;
-    msg << "heat_laplacian: " << what << " must be > 0 and finite, got " << v;
-    throw Error(msg.str());
-  }
-}
+void check_positive(const char* what, double v) { require_positive(std::string("heat_laplacian: ") + what, v); }
 
 void check_memory(std::size_t nnz, std::size_t rows, double limit, bool stiffness) {
   const double bytes = heat_laplacian_bytes(nnz, rows, stiffness);

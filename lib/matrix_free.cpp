@@ -41,7 +41,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     msg << "MatrixFreeLaplacian: epsilon must be in (0, 1), got " << epsilon;
     throw Error(msg.str());
   }
-  if (!(options.k > 0) || !std::isfinite(options.k)) throw Error("MatrixFreeLaplacian: k must be > 0 and finite");
+  require_positive("MatrixFreeLaplacian: k", options.k);
   t_ = heat_time(contours.h, options);
   cut_ = options.k * std::sqrt(t_);
   delta_ = std::sqrt(4 * t_);
@@ -410,7 +410,7 @@ namespace digilap {
 
 Eigen::VectorXd heat_step_cg(const MatrixFreeLaplacian& op, const Eigen::VectorXd& u, double dt, double tolerance,
                              int* iterations) {
-  if (!(dt > 0) || !std::isfinite(dt)) throw Error("heat_step_cg: dt must be > 0 and finite");
+  require_positive("heat_step_cg: dt", dt);
   if (u.size() != op.rows()) throw Error("heat_step_cg: the vector has the wrong size");
   for (Eigen::Index i = 0; i < op.rows(); ++i)
     if (!(op.mass()[i] > 0)) throw Error("heat_step_cg: the mass of row " + std::to_string(i) + " is not > 0");

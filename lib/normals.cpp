@@ -94,11 +94,7 @@ Eigen::Vector2d covariance_normal(const Moments& mo, const Eigen::Vector2d& triv
 }  // namespace
 
 LinelNormals ii_normals(const DigitalSet& set, const ContourSet& contours, const IINormalOptions& options) {
-  if (!(options.k_R > 0) || !std::isfinite(options.k_R)) {
-    std::ostringstream msg;
-    msg << "ii_normals: k_R must be > 0 and finite, got " << options.k_R;
-    throw Error(msg.str());
-  }
+  require_positive("ii_normals: k_R", options.k_R);
   const double h = set.h();
   const double R = options.k_R * std::cbrt(h);
   const double rho = R / h;

@@ -264,8 +264,7 @@ bool PolarCurve::local_inside(const Eigen::Vector2d& p) const {
 }
 
 Circle::Circle(double radius) {
-  if (!(radius > 0) || !std::isfinite(radius))
-    throw Error("circle: radius must be > 0 and finite, got " + std::to_string(radius));
+  require_positive("circle: radius", radius);
   name_ = "circle";
   set_functions([radius](double) { return radius; }, [](double) { return 0.0; },
                 [](double) { return 0.0; });

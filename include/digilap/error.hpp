@@ -1,6 +1,8 @@
 // digilap — the one exception type of the library.
 #pragma once
 
+#include <cmath>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -12,5 +14,14 @@ class Error : public std::runtime_error {
 public:
   explicit Error(const std::string& what) : std::runtime_error(what) {}
 };
+
+/// Throws Error("<what> must be > 0 and finite, got <value>") unless value is > 0 and finite:
+/// the one check every step, time, radius and constant of the pipeline goes through.
+inline void require_positive(const std::string& what, double value) {
+  if (value > 0 && std::isfinite(value)) return;
+  std::ostringstream msg;
+  msg << what << " must be > 0 and finite, got " << value;
+  throw Error(msg.str());
+}
 
 }  // namespace digilap
