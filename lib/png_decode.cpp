@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <string>
 
 // PNG through stb_image (Debian's libstb-dev), compiled here as its single-file implementation,
 // static and PNG only: the smallest decoder surface to expose to untrusted files. This file is
@@ -26,10 +28,37 @@
 
 namespace digilap::detail {
 
+namespace {
+
+std::uint32_t read_big_endian_u32(const std::uint8_t* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | std::uint32_t{p[3]};
+}
+
+// stb trusts each chunk's declared length and grows its IDAT buffer to it before checking that
+// the bytes exist, so a 100-byte file claiming a 1 GB chunk makes it allocate 1 GB (found by
+// fuzzing). Walk the chunk list first: every chunk must fit inside the file, up to IEND.
+void check_png_chunks_fit(const std::uint8_t* data, std::size_t size, const std::string& name) {
+  constexpr std::size_t kSignature = 8, kChunkOverhead = 12;  // length, type, CRC
+  std::size_t offset = kSignature;
+  while (true) {
+    if (size - offset < kChunkOverhead) throw Error(name + ": truncated PNG (no IEND chunk)");
+    const std::uint32_t length = read_big_endian_u32(data + offset);
+    if (length > size - offset - kChunkOverhead)
+      throw Error(name + ": corrupt PNG (a chunk of " + std::to_string(length) + " bytes at offset " + std::to_string(offset) +
+                  " runs past the end of the " + std::to_string(size) + "-byte file)");
+    const bool is_end = std::equal(data + offset + 4, data + offset + 8, "IEND");
+    offset += kChunkOverhead + length;
+    if (is_end) return;
+  }
+}
+
+}  // namespace
+
 GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::string& name, const ImageLimits& limits) {
   if (size > static_cast<std::size_t>(INT32_MAX)) throw Error(name + ": file too large");
   int w = 0, h = 0, channels = 0;
   const auto len = static_cast<int>(size);
+  if (size >= 8) check_png_chunks_fit(data, size, name);  // shorter: stbi_info refuses it below
   if (!stbi_info_from_memory(data, len, &w, &h, &channels)) throw Error(name + ": " + std::string("not a readable PNG (") + stbi_failure_reason() + ")");
   check_image_size(w, h, name, limits);  // before decoding: the decoder allocates w * h * channels
   const bool sixteen = stbi_is_16_bit_from_memory(data, len);

@@ -66,6 +66,38 @@ TEST(Image, PngGreyAndRgbaWithTransparency) {
   for (int k = 0; k < 15; ++k) EXPECT_EQ(im.pixels[k], kDark[k] ? 0 : 255) << k;
 }
 
+TEST(Image, PngWhoseChunkRunsPastTheFileIsRefusedBeforeDecoding) {
+  // Fuzzing found a 129-byte PNG declaring a 1.15 GB IDAT chunk: stb allocated it before noticing.
+  // It must be refused by the chunk walk, naming the chunk; so must a file cut before IEND.
+  const auto dir = std::filesystem::temp_directory_path() / "digilap_test_image";
+  std::filesystem::create_directories(dir);
+  std::vector<unsigned char> grey(15);
+  for (int k = 0; k < 15; ++k) grey[k] = kDark[k] ? 0 : 255;
+  const std::string path = (dir / "cut.png").string();
+  ASSERT_TRUE(stbi_write_png(path.c_str(), 5, 3, 1, grey.data(), 5));
+  std::ifstream in(path, std::ios::binary);
+  const std::string whole((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto as_bytes = [](const std::string& s) { return reinterpret_cast<const std::uint8_t*>(s.data()); };
+  EXPECT_EQ(decode_image(as_bytes(whole), whole.size(), "whole").width, 5);
+  const auto message_of = [&](const std::string& bytes) {
+    try {
+      decode_image(as_bytes(bytes), bytes.size(), "f");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("decoded");
+  };
+  EXPECT_NE(message_of(whole.substr(0, whole.size() - 12)).find("no IEND"), std::string::npos);  // IEND cut off
+  EXPECT_NE(message_of(whole.substr(0, whole.size() - 20)).find("runs past the end"), std::string::npos);  // inside IDAT
+  const std::string fuzz_found = std::string(DIGILAP_FUZZ_CORPUS) + "/regression_png_chunk_overruns_file.png";
+  try {
+    read_image(fuzz_found);
+    ADD_FAILURE() << "the overrunning chunk was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("1152253977 bytes"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Image, FrameIsYUpAndTheImageSpansTheUnitSquare) {
   const GrayImage im = decode("P1 5 3 1 0 0 0 0 1 0 0 0 0 1 1 1 0 0");
   const DigitalSet set = binarize(im);
