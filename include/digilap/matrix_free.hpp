@@ -38,7 +38,8 @@ public:
   const std::vector<Eigen::Index>& row_offset() const { return offset_; }
   const Eigen::MatrixX2d& positions() const { return positions_; }
 
-  /// y = L x (x and y of size rows(), not aliased). Parallel with OpenMP.
+  /// y = L x (x and y of size rows(), not aliased). Parallel with OpenMP inside; do not call
+  /// it on the same operator from several threads at once (it reuses scratch buffers).
   void apply(const double* x, double* y) const;
   Eigen::VectorXd operator*(const Eigen::VectorXd& x) const;
   /// y = A x = M L x.
@@ -63,7 +64,10 @@ private:
   std::vector<Eigen::Index> back_, fwd_;  // the geodesic window of each row
   double t_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
   int order_ = 0;
-  mutable std::vector<double> prefix_;  // prefix moments, N x order, reused by every product
+  // Scratch reused by every product: prefix moments (N x order), mu x and its transform.
+  // Products on one operator are therefore not thread-safe (each runs in parallel inside).
+  mutable std::vector<double> prefix_;
+  mutable Eigen::VectorXd weighted_, transformed_;
 };
 
 /// The `count` smallest eigenpairs of -A x = lambda M x through the matrix-free operator:
