@@ -41,10 +41,10 @@ void check_png_chunks_fit(const std::uint8_t* data, std::size_t size, const std:
   constexpr std::size_t kSignature = 8, kChunkOverhead = 12;  // length, type, CRC
   std::size_t offset = kSignature;
   while (true) {
-    if (size - offset < kChunkOverhead) throw Error(name + ": truncated PNG (no IEND chunk)");
+    if (size - offset < kChunkOverhead) throw Error(name + ": not a readable PNG (truncated: no IEND chunk)");
     const std::uint32_t length = read_big_endian_u32(data + offset);
     if (length > size - offset - kChunkOverhead)
-      throw Error(name + ": corrupt PNG (a chunk of " + std::to_string(length) + " bytes at offset " + std::to_string(offset) +
+      throw Error(name + ": not a readable PNG (a chunk of " + std::to_string(length) + " bytes at offset " + std::to_string(offset) +
                   " runs past the end of the " + std::to_string(size) + "-byte file)");
     const bool is_end = std::equal(data + offset + 4, data + offset + 8, "IEND");
     offset += kChunkOverhead + length;

@@ -3,10 +3,12 @@
 #include "digilap/ground_truth.hpp"
 #include "digilap/heat_flow.hpp"
 #include "digilap/matrix_free.hpp"
+#include "digilap/spectrum.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 using namespace digilap;
 
@@ -87,6 +89,52 @@ TEST(MatrixFree, SmallestEigenpairsMatchTheExactSpectrum) {
   // M-orthonormal eigenvectors.
   const Eigen::MatrixXd gram = sp.eigenvectors.transpose() * mf.mass().asDiagonal() * sp.eigenvectors;
   EXPECT_LE((gram - Eigen::MatrixXd::Identity(9, 9)).cwiseAbs().maxCoeff(), 1e-8);
+}
+
+// The matrix-free eigen-solver (preconditioned LOBPCG) against the factorized one on the
+// explicit matrix. Tolerance: the two operators differ by at most eps c (eps = 1e-10, c the
+// spectrum's bound 2 max|L_ii|) and each eigenvalue is within its residual bound tolerance * c
+// (1e-10 c, Bauer-Fike for symmetric matrices) of the operator's: 3e-10 c leaves a 1.5x margin.
+static void expect_same_spectrum(const ContourSet& contours, const Measures& mu, int count, const std::string& what) {
+  const ContourOperator op = heat_laplacian(contours, mu);
+  const MatrixFreeLaplacian mf(contours, mu);
+  const Spectrum factorized = smallest_eigenpairs(op, {count});
+  const Spectrum free = smallest_eigenpairs(mf, {count});
+  const double c = 2 * mf.diagonal().cwiseAbs().maxCoeff();
+  ASSERT_EQ(free.eigenvalues.size(), count);
+  for (int k = 0; k < count; ++k) EXPECT_NEAR(free.eigenvalues[k], factorized.eigenvalues[k], 3e-10 * c) << what << " k " << k;
+  const Eigen::MatrixXd gram = free.eigenvectors.transpose() * mf.mass().asDiagonal() * free.eigenvectors;
+  EXPECT_LE((gram - Eigen::MatrixXd::Identity(count, count)).cwiseAbs().maxCoeff(), 1e-8) << what;
+}
+
+TEST(MatrixFree, LobpcgMatchesTheFactorizedSolverInIterationsIndependentOfH) {
+  Flower flower;
+  for (double h : {0.01, 0.002}) {
+    const Pipeline s = pipeline(flower, h);
+    expect_same_spectrum(s.contours, s.mu, 10, "flower h " + std::to_string(h));
+    // The arclength preconditioner makes the iteration count independent of h (12 and 10
+    // measured); Lanczos needs 412 and about 1000 products here, growing like h^(-1/3).
+    const Spectrum free = smallest_eigenpairs(MatrixFreeLaplacian(s.contours, s.mu), {10});
+    EXPECT_LE(free.iterations, 20) << "h " << h;
+    EXPECT_LE(free.operations, 15 * 21) << "h " << h;  // one block of 15 per iteration
+  }
+}
+
+TEST(MatrixFree, LobpcgOnSeveralContoursOfDifferentLengths) {
+  // An annulus (outer contour and hole: two zero eigenvalues, then each contour's own modes)
+  // and a separate small disc: three contours, three zero eigenvalues.
+  const int size = 240;
+  std::vector<std::uint8_t> bitmap(static_cast<std::size_t>(size) * size, 0);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double r = std::hypot(x - 90.5, y - 120.5), d = std::hypot(x - 205.5, y - 120.5);
+      bitmap[static_cast<std::size_t>(y) * size + x] = (r < 80 && r > 35) || d < 25;
+    }
+  const DigitalSet set = DigitalSet::from_bitmap(1.0 / size, size, size, bitmap);
+  const ContourSet contours = track_contours(set);
+  ASSERT_EQ(contours.contours.size(), 3u);
+  const Measures mu = measures(contours, ii_normals(set, contours));
+  expect_same_spectrum(contours, mu, 12, "annulus and disc");
 }
 
 TEST(MatrixFree, ConjugateGradientHeatStepEqualsTheFactorizedOne) {

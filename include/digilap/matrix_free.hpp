@@ -37,6 +37,10 @@ public:
   const Eigen::VectorXd& diagonal() const { return diagonal_; }
   const std::vector<Eigen::Index>& row_offset() const { return offset_; }
   const Eigen::MatrixX2d& positions() const { return positions_; }
+  /// Arclength coordinate S_i of each row along its contour, in [0, length of the contour).
+  const Eigen::VectorXd& arclength() const { return s_; }
+  /// Length P of each contour (the period of its arclength coordinate).
+  std::vector<double> contour_lengths() const;
 
   /// y = L x (x and y of size rows(), not aliased). Parallel with OpenMP inside; do not call
   /// it on the same operator from several threads at once (it reuses scratch buffers).
@@ -70,10 +74,16 @@ private:
   mutable Eigen::VectorXd weighted_, transformed_;
 };
 
-/// The `count` smallest eigenpairs of -A x = lambda M x through the matrix-free operator:
-/// Lanczos (Spectra) on c I - M^(1/2) (-L) M^(-1/2), whose largest eigenvalues are the wanted
-/// ones, c = 2 max|L_ii| bounding the spectrum (Gershgorin). No factorization: memory O(N).
-/// Eigenvectors are M-orthonormal. Throws digilap::Error for a zero mass or no convergence.
+/// The `count` smallest eigenpairs of -A x = lambda M x through the matrix-free operator, on
+/// C = M^(1/2) (-L) M^(-1/2). First block LOBPCG preconditioned by the 1D Laplacian along the
+/// arclength (its heat-operator form D2 (I + t D2)^-1, a cyclic tridiagonal solve): about 10
+/// iterations whatever h. If that has not converged after min(max_iterations, 300) iterations
+/// (or N is tiny), Lanczos (Spectra) on c I - C, c = 2 max|L_ii| (Gershgorin), with
+/// max_iterations restarts and `subspace` vectors. Converged when every wanted residual
+/// |C y - lambda y| <= tolerance * c (LOBPCG), or Spectra's Ritz-value test at `tolerance`.
+/// No factorization of L: memory O(N count). Eigenvectors are M-orthonormal; `iterations`
+/// and `operations` report the method that answered. Throws digilap::Error for a zero mass or
+/// no convergence.
 Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& options = {});
 
 /// One implicit Euler heat step (M - dt A) u' = M u solved by Eigen's ConjugateGradient on the

@@ -1,0 +1,97 @@
+#include "lobpcg.hpp"
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+
+namespace digilap::detail {
+
+namespace {
+
+// Coordinates of an orthonormal basis of span(S), from S's Gram matrix alone: columns scaled
+// to unit norm (the Gram matrix then measures dependence, not size), eigen-decomposition
+// V D V^T, directions with D below 1e-12 of the largest dropped (they would amplify rounding
+// by more than 1e6), map = diag(1 / |s_k|) V D^(-1/2). S map is then orthonormal.
+Eigen::MatrixXd orthonormal_coordinates(const Eigen::MatrixXd& gram) {
+  Eigen::VectorXd inv_norms = gram.diagonal().cwiseSqrt();
+  for (Eigen::Index k = 0; k < inv_norms.size(); ++k) inv_norms[k] = inv_norms[k] > 0 ? 1.0 / inv_norms[k] : 0.0;
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(inv_norms.asDiagonal() * gram * inv_norms.asDiagonal());
+  const Eigen::VectorXd& d = eig.eigenvalues();
+  const double floor = 1e-12 * d.maxCoeff();
+  Eigen::Index first = 0;
+  while (first < d.size() && d[first] <= floor) ++first;
+  const Eigen::Index kept = d.size() - first;
+  Eigen::MatrixXd map = inv_norms.asDiagonal() * eig.eigenvectors().rightCols(kept);
+  for (Eigen::Index k = 0; k < kept; ++k) map.col(k) /= std::sqrt(d[first + k]);
+  return map;
+}
+
+// Rayleigh-Ritz on span(S), given S^T S and S^T C S: the `keep` smallest Ritz values, and the
+// coordinates in S of their Ritz vectors.
+struct RitzPairs {
+  Eigen::VectorXd values;
+  Eigen::MatrixXd coordinates;
+};
+RitzPairs rayleigh_ritz(const Eigen::MatrixXd& gram, const Eigen::MatrixXd& projected, Eigen::Index keep) {
+  const Eigen::MatrixXd map = orthonormal_coordinates(gram);
+  Eigen::MatrixXd h = map.transpose() * projected * map;
+  h = 0.5 * (h + h.transpose());  // symmetric up to rounding: made exactly so
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(h);
+  keep = std::min<Eigen::Index>(keep, h.rows());
+  return {eig.eigenvalues().head(keep), map * eig.eigenvectors().leftCols(keep)};
+}
+
+}  // namespace
+
+LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
+                    double tolerance, int max_iterations) {
+  LobpcgResult result;
+  const Eigen::Index b = start.cols();
+  Eigen::MatrixXd cstart(start.rows(), b);
+  apply_c(start, cstart);
+  result.products += static_cast<int>(b);
+  RitzPairs ritz = rayleigh_ritz(start.transpose() * start, start.transpose() * cstart, b);
+  Eigen::MatrixXd x = start * ritz.coordinates, cx = cstart * ritz.coordinates;
+  Eigen::VectorXd lambda = ritz.values;
+  Eigen::MatrixXd p, cp;  // empty on the first iteration
+  for (int iteration = 0;; ++iteration) {
+    const Eigen::Index bx = x.cols();
+    const Eigen::MatrixXd r = cx - x * lambda.asDiagonal();
+    result.residual_norms = r.colwise().norm().transpose();
+    result.iterations = iteration;
+    if (bx >= count && (result.residual_norms.head(count).array() <= tolerance).all()) {
+      result.converged = true;
+      break;
+    }
+    if (iteration == max_iterations) break;
+    // Preconditioned residuals, made orthogonal to X (twice: once is not enough in floating
+    // point when X has nearly converged), then multiplied by C.
+    Eigen::MatrixXd w(r.rows(), r.cols());
+    apply_t(r, w);
+    for (int pass = 0; pass < 2; ++pass) w -= x * (x.transpose() * w);
+    Eigen::MatrixXd cw(w.rows(), w.cols());
+    apply_c(w, cw);
+    result.products += static_cast<int>(w.cols());
+    // Rayleigh-Ritz on [X, W, P]; only S^T S and S^T C S are formed (no orthonormalized copy).
+    const Eigen::Index cols = bx + w.cols() + p.cols();
+    Eigen::MatrixXd s(x.rows(), cols), cs(x.rows(), cols);
+    s << x, w, p;
+    cs << cx, cw, cp;
+    ritz = rayleigh_ritz(s.transpose() * s, s.transpose() * cs, b);
+    // New X, and P = its part along W and P, formed as that combination: X_new - X c_x would
+    // be the same in exact arithmetic, but it cancels as X converges and leaves P and C P
+    // inconsistent (the iteration then diverges; seen at residuals near 1e-6).
+    const Eigen::Index tail = cols - bx;
+    p = s.rightCols(tail) * ritz.coordinates.bottomRows(tail);
+    cp = cs.rightCols(tail) * ritz.coordinates.bottomRows(tail);
+    x = s * ritz.coordinates;
+    cx = cs * ritz.coordinates;
+    lambda = ritz.values;
+  }
+  result.values = lambda.head(std::min<Eigen::Index>(count, lambda.size()));
+  result.vectors = x.leftCols(result.values.size());
+  return result;
+}
+
+}  // namespace digilap::detail

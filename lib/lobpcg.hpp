@@ -1,0 +1,34 @@
+// Internal: block LOBPCG (Knyazev 2001) for the smallest eigenpairs of a symmetric operator C
+// given only as block products, with a symmetric positive definite preconditioner T ~ C^-1.
+// Written here because Spectra's LOBPCG (contrib) needs C as a stored sparse matrix, and the
+// point of this solver is the matrix-free operator.
+//
+// Each iteration: residuals R = C X - X Lambda, W = T R, Rayleigh-Ritz on span[X, W, P]
+// (orthonormalized through the eigen-decomposition of its Gram matrix, nearly dependent
+// directions dropped), P = the W, P part of the new X. One block product per iteration.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <functional>
+
+namespace digilap::detail {
+
+using BlockMap = std::function<void(const Eigen::MatrixXd& in, Eigen::MatrixXd& out)>;
+
+struct LobpcgResult {
+  Eigen::VectorXd values;   ///< ascending, `count` of them
+  Eigen::MatrixXd vectors;  ///< orthonormal columns
+  Eigen::VectorXd residual_norms;
+  int iterations = 0;
+  int products = 0;         ///< columns multiplied by C
+  bool converged = false;
+};
+
+/// The `count` smallest eigenpairs of C, iterating a block of start.cols() >= count vectors
+/// until every wanted residual norm ||C x - lambda x|| is <= tolerance (absolute), or
+/// max_iterations.
+LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
+                    double tolerance, int max_iterations);
+
+}  // namespace digilap::detail
