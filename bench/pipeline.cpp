@@ -146,7 +146,7 @@ int main(int argc, char** argv) {
   CLI::App app{"digilap-bench: the pipeline stage by stage on the flower (time in s, peak memory in GiB)."};
   std::vector<double> steps{1e-2, 3e-3, 1e-3, 3e-4, 1e-4};
   std::vector<int> threads{1, 2};
-  double eigen_min_h = 1e-3, free_eigen_min_h = 1e-4, memory_limit = 20e9;
+  double eigen_min_h = 1e-3, free_eigen_min_h = 3e-5, memory_limit = 20e9;
   app.add_option("--h", steps, "Grid steps")->capture_default_str();
   app.add_option("--threads", threads, "Thread counts")->capture_default_str();
   app.add_option("--eigen-min-h", eigen_min_h, "Smallest h for the factorized 10 eigenpairs")->capture_default_str();

@@ -11,7 +11,8 @@
 using namespace digilap;
 
 int main(int argc, char** argv) {
-  CLI::App app{"digilap-spectrum: smallest eigenpairs of -A x = lambda M x (Spectra, shift-and-invert).\n"
+  CLI::App app{"digilap-spectrum: smallest eigenpairs of -A x = lambda M x (Spectra, shift-and-invert;\n"
+               "with --matrix-free: preconditioned LOBPCG on the matrix-free operator, for small h).\n"
                "The table compares lambda_k with (2 pi m / P)^2 and with m^2 lambda_1 (any simple closed contour).\n"
                "Writes <out>/eigenvalues.csv, <out>/eigenvectors.csv and <out>/eigenvectors.svg."};
   app::FrontEndOptions fe_options;
@@ -20,27 +21,55 @@ int main(int argc, char** argv) {
   spectrum_options.count = 11;
   std::string out_dir = "out/spectrum";
   int draw = 8;
-  bool quiet = false;
+  bool quiet = false, matrix_free = false;
   app::add_front_end_options(app, fe_options);
   app::add_operator_options(app, op_options);
   app.add_option("--count", spectrum_options.count, "Number of eigenpairs")->capture_default_str();
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
+  app.add_flag("--matrix-free", matrix_free,
+               "Never store L: the matrix-free operator (geodesic distance only) and LOBPCG; memory O(N count)");
   app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
-    const ContourOperator op = app::build_operator(fe, op_options, progress);
-    progress.start("eigenpairs");
-    const Spectrum s = smallest_eigenpairs(op, spectrum_options);
-    progress.finish();
+    // What the tables and files need, from either operator.
+    Spectrum s;
+    Eigen::MatrixX2d positions;
+    Eigen::VectorXd arclength;
+    std::vector<Eigen::Index> row_offset;
+    double t = 0, P_est = 0;
+    if (matrix_free) {
+      progress.start("matrix-free operator");
+      const MatrixFreeLaplacian op(fe.contours, fe.measures, op_options);
+      progress.finish();
+      progress.start("eigenpairs (LOBPCG)");
+      s = smallest_eigenpairs(op, spectrum_options);
+      progress.finish();
+      positions = op.positions();
+      arclength = op.arclength();
+      row_offset = op.row_offset();
+      t = op.t();
+      P_est = op.contour_lengths()[0];
+    } else {
+      const ContourOperator op = app::build_operator(fe, op_options, progress);
+      progress.start("eigenpairs");
+      s = smallest_eigenpairs(op, spectrum_options);
+      progress.finish();
+      positions = op.positions;
+      arclength = op.arclength;
+      row_offset = op.row_offset;
+      t = op.t;
+      P_est = op.contour_length[0];
+    }
+    const Eigen::Index rows = positions.rows();
 
     // Images have no exact curve: the exact column then uses the estimated length of contour 0.
-    const double P_est = op.contour_length[0], P = fe.shape ? fe.exact_length : P_est;
-    std::printf("# %s, h = %g, N = %ld, t = %.4g, P = %.8g (estimated %.8g), %d Lanczos restarts, %d solves\n",
-                fe.name.c_str(), fe.contours.h, static_cast<long>(op.rows()), op.t, P, P_est, s.iterations,
-                s.operations);
+    const double P = fe.shape ? fe.exact_length : P_est;
+    std::printf("# %s, h = %g, N = %ld, t = %.4g, P = %.8g (estimated %.8g), %s: %d iterations, %d operator applications\n",
+                fe.name.c_str(), fe.contours.h, static_cast<long>(rows), t, P, P_est,
+                matrix_free ? "matrix-free" : "factorized", s.iterations, s.operations);
     std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | lambda_k/lambda_1 (m^2) | pair split |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|\n");
     std::filesystem::create_directories(out_dir);
@@ -52,7 +81,7 @@ int main(int argc, char** argv) {
     values.precision(15);
     for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
       const int m = static_cast<int>((k + 1) / 2);
-      const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, op.t);
+      const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t);
       const double lambda = s.eigenvalues[k];
       const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
       char split[32] = "";
@@ -70,8 +99,8 @@ int main(int argc, char** argv) {
     for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ",phi_" << k;
     vectors << '\n';
     vectors.precision(12);
-    for (Eigen::Index r = 0; r < op.rows(); ++r) {
-      vectors << r << ',' << op.positions(r, 0) << ',' << op.positions(r, 1) << ',' << op.arclength[r];
+    for (Eigen::Index r = 0; r < rows; ++r) {
+      vectors << r << ',' << positions(r, 0) << ',' << positions(r, 1) << ',' << arclength[r];
       for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ',' << s.eigenvectors(r, k);
       vectors << '\n';
     }
@@ -82,7 +111,7 @@ int main(int argc, char** argv) {
       panels.push_back({title, s.eigenvectors.col(k)});
     }
     if (!panels.empty())
-      app::save_contour_panels(svg_path, op.positions, op.row_offset, panels, 4,
+      app::save_contour_panels(svg_path, positions, row_offset, panels, 4,
                                "Eigenvectors of the digital Laplace-Beltrami operator, " + fe.name);
     std::printf("\nwrote %s\nwrote %s\nwrote %s\n", values_path.c_str(), vectors_path.c_str(), svg_path.c_str());
     return 0;
