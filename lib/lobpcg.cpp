@@ -45,7 +45,7 @@ RitzPairs rayleigh_ritz(const Eigen::MatrixXd& gram, const Eigen::MatrixXd& proj
 }  // namespace
 
 LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
-                    double tolerance, int max_iterations) {
+                    double tolerance, int max_iterations, const std::function<void(int, double)>& progress) {
   LobpcgResult result;
   const Eigen::Index b = start.cols();
   Eigen::MatrixXd cstart(start.rows(), b);
@@ -60,6 +60,7 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     const Eigen::MatrixXd r = cx - x * lambda.asDiagonal();
     result.residual_norms = r.colwise().norm().transpose();
     result.iterations = iteration;
+    if (progress) progress(iteration, result.residual_norms.head(std::min<Eigen::Index>(count, bx)).maxCoeff() / tolerance);
     if (bx >= count && (result.residual_norms.head(count).array() <= tolerance).all()) {
       result.converged = true;
       break;

@@ -28,7 +28,13 @@ struct LobpcgResult {
 /// The `count` smallest eigenpairs of C, iterating a block of start.cols() >= count vectors
 /// until every wanted residual norm ||C x - lambda x|| is <= tolerance (absolute), or
 /// max_iterations.
+/// `progress`, if set, gets each iteration and its largest wanted residual / tolerance.
 LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
-                    double tolerance, int max_iterations);
+                    double tolerance, int max_iterations,
+                    const std::function<void(int, double)>& progress = nullptr);
+
+/// Bytes of the dense blocks lobpcg() holds for n rows and a block of b columns: X, CX, P,
+/// CP, R, W, CW (7 b) and the basis [X W P] with its image (6 b).
+inline double lobpcg_bytes(Eigen::Index n, Eigen::Index b) { return 13.0 * static_cast<double>(n) * b * sizeof(double); }
 
 }  // namespace digilap::detail

@@ -445,7 +445,8 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   // same scale as Lanczos's Ritz-value test on c I - C.
   constexpr int kLobpcgIterations = 300;
   const Eigen::Index block = std::min<Eigen::Index>(n, o.count + std::max(4, o.count / 2));
-  if (block < n / 2) {
+  const double lobpcg_need = detail::lobpcg_bytes(n, block);
+  if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {
     const ArclengthPreconditioner preconditioner(op);
     Eigen::MatrixXd start(n, block);
     std::uint64_t state = 0x9e3779b97f4a7c15ULL;  // a fixed start: reproducible runs
@@ -456,7 +457,7 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
     const detail::LobpcgResult r = detail::lobpcg(
         [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { form.apply_block(x, y); },
         [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); }, std::move(start), o.count,
-        o.tolerance * c, std::min(o.max_iterations, kLobpcgIterations));
+        o.tolerance * c, std::min(o.max_iterations, kLobpcgIterations), o.progress);
     if (r.converged) {
       s.eigenvalues = r.values;
       s.eigenvectors = form.sqrt_mass().cwiseInverse().asDiagonal() * r.vectors;  // M-orthonormal
@@ -468,6 +469,14 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   // Lanczos (Spectra) on c I - C, whose largest eigenvalues are the wanted ones.
   ShiftedSymmetricOp shifted(form, n, c);
   const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(4 * o.count, 40)));
+  const double lanczos_bytes = 2.0 * static_cast<double>(n) * (ncv + o.count) * sizeof(double);  // basis + result
+  if (lanczos_bytes > o.memory_limit_bytes) {
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs: " << o.count << " eigenpairs of " << n << " rows need about "
+        << lobpcg_need / 1e9 << " GB (LOBPCG) or " << lanczos_bytes / 1e9
+        << " GB (Lanczos), above the memory limit of " << o.memory_limit_bytes / 1e9 << " GB; ask for fewer";
+    throw Error(msg.str());
+  }
   Spectra::SymEigsSolver<ShiftedSymmetricOp> eigs(shifted, o.count, ncv);
   eigs.init();
   const Eigen::Index converged = eigs.compute(Spectra::SortRule::LargestAlge, o.max_iterations, o.tolerance,

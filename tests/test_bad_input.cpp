@@ -81,6 +81,7 @@ const std::vector<Case> kCases = {
     {"count_too_large", "spectrum", "--shape circle --h 0.5 --count 50", "", false, "count must be in [1,"},
     {"count_too_large_matrix_free", "spectrum", "--shape circle --h 0.5 --count 50 --matrix-free", "", false, "count must be in [1,"},
     {"matrix_free_spectrum", "spectrum", "--shape circle --h 0.02 --matrix-free --quiet --out {dir}/mf", "", true, "matrix-free: "},
+    {"matrix_free_memory", "spectrum", "--matrix-free --count 20 --memory-limit 1e6", "", false, "above the memory limit"},
     {"matrix_free_euclidean", "spectrum", "--matrix-free --distance euclidean", "", false, "only the geodesic distance"},
     {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
     {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 using namespace digilap;
 
@@ -117,6 +118,37 @@ TEST(MatrixFree, LobpcgMatchesTheFactorizedSolverInIterationsIndependentOfH) {
     const Spectrum free = smallest_eigenpairs(MatrixFreeLaplacian(s.contours, s.mu), {10});
     EXPECT_LE(free.iterations, 20) << "h " << h;
     EXPECT_LE(free.operations, 15 * 21) << "h " << h;  // one block of 15 per iteration
+  }
+}
+
+TEST(MatrixFree, EigenSolverReportsProgressAndRespectsTheMemoryLimit) {
+  const Pipeline s = pipeline(Flower(), 0.01);  // N = 2108
+  const MatrixFreeLaplacian mf(s.contours, s.mu);
+  SpectrumOptions o;
+  std::vector<double> residuals;
+  o.progress = [&](int iteration, double r) {
+    EXPECT_EQ(iteration, static_cast<int>(residuals.size()));
+    residuals.push_back(r);
+  };
+  const Spectrum lobpcg = smallest_eigenpairs(mf, o);
+  ASSERT_EQ(static_cast<int>(residuals.size()), lobpcg.iterations + 1);
+  EXPECT_GT(residuals.front(), 1e3);  // a random start is far from converged
+  EXPECT_LE(residuals.back(), 1.0);   // and the last one met the tolerance
+  // LOBPCG would hold 13 x 2108 x 15 doubles (3.3 MB), Lanczos 2 x 2108 x 50 (1.7 MB): a limit
+  // between the two takes the Lanczos fallback, which must find the same eigenvalues (both
+  // within 1e-10 c of the operator's); a limit below both is refused, naming the limit.
+  o.progress = nullptr;
+  o.memory_limit_bytes = 2.5e6;
+  const Spectrum lanczos = smallest_eigenpairs(mf, o);
+  const double c = 2 * mf.diagonal().cwiseAbs().maxCoeff();
+  for (int k = 0; k < o.count; ++k) EXPECT_NEAR(lanczos.eigenvalues[k], lobpcg.eigenvalues[k], 2e-10 * c) << k;
+  EXPECT_GT(lanczos.operations, lobpcg.operations);  // 412 against 195: Lanczos did run
+  o.memory_limit_bytes = 1e6;
+  try {
+    smallest_eigenpairs(mf, o);
+    ADD_FAILURE() << "no error below the memory limit";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("above the memory limit"), std::string::npos) << e.what();
   }
 }
 

@@ -3,6 +3,7 @@
 #include "../common/app_common.hpp"
 #include "../common/svg_contour.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -44,9 +45,19 @@ int main(int argc, char** argv) {
       progress.start("matrix-free operator");
       const MatrixFreeLaplacian op(fe.contours, fe.measures, op_options);
       progress.finish();
-      progress.start("eigenpairs (LOBPCG)");
+      // A bar for the iteration: the residual's way down from its first value to the
+      // tolerance, on a log scale.
+      spectrum_options.memory_limit_bytes = op_options.memory_limit_bytes;  // --memory-limit covers the blocks
+      double first_residual = 0;
+      bool bar_shown = false;
+      spectrum_options.progress = [&](int iteration, double residual) {
+        bar_shown = true;
+        if (iteration == 0) first_residual = std::max(residual, 1.0 + 1e-9);
+        const double done = std::log(first_residual / std::max(residual, 1.0)) / std::log(first_residual);
+        progress.bar("eigenpairs (LOBPCG)", std::clamp(done, 0.0, 1.0));
+      };
       s = smallest_eigenpairs(op, spectrum_options);
-      progress.finish();
+      if (bar_shown) progress.end_bar();
       positions = op.positions();
       arclength = op.arclength();
       row_offset = op.row_offset();
