@@ -47,17 +47,24 @@ RitzPairs rayleigh_ritz(const Eigen::MatrixXd& gram, const Eigen::MatrixXd& proj
 LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
                     double tolerance, int max_iterations, const std::function<void(int, double)>& progress) {
   LobpcgResult result;
-  const Eigen::Index b = start.cols();
-  Eigen::MatrixXd cstart(start.rows(), b);
-  apply_c(start, cstart);
+  const Eigen::Index n = start.rows(), b = start.cols();
+  // Every N-row block is allocated once, here: at large N a fresh block per iteration cost
+  // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each).
+  // The basis [X | W | P] and its image live side by side in s and cs.
+  Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, 0), cp(n, 0);
+  Eigen::MatrixXd next_x(n, b), next_cx(n, b), next_p(n, b), next_cp(n, b);
+  apply_c(start, cw);
   result.products += static_cast<int>(b);
-  RitzPairs ritz = rayleigh_ritz(start.transpose() * start, start.transpose() * cstart, b);
-  Eigen::MatrixXd x = start * ritz.coordinates, cx = cstart * ritz.coordinates;
+  RitzPairs ritz = rayleigh_ritz(start.transpose() * start, start.transpose() * cw, b);
+  Eigen::Index bx = ritz.values.size();
+  s.leftCols(bx).noalias() = start * ritz.coordinates;
+  cs.leftCols(bx).noalias() = cw * ritz.coordinates;
+  start.resize(0, 0);
   Eigen::VectorXd lambda = ritz.values;
-  Eigen::MatrixXd p, cp;  // empty on the first iteration
   for (int iteration = 0;; ++iteration) {
-    const Eigen::Index bx = x.cols();
-    const Eigen::MatrixXd r = cx - x * lambda.asDiagonal();
+    const auto x = s.leftCols(bx), cx = cs.leftCols(bx);
+    r.resize(n, bx);  // no-op unless Rayleigh-Ritz dropped directions
+    r.noalias() = cx - x * lambda.asDiagonal();
     result.residual_norms = r.colwise().norm().transpose();
     result.iterations = iteration;
     if (progress) progress(iteration, result.residual_norms.head(std::min<Eigen::Index>(count, bx)).maxCoeff() / tolerance);
@@ -68,30 +75,39 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     if (iteration == max_iterations) break;
     // Preconditioned residuals, made orthogonal to X (twice: once is not enough in floating
     // point when X has nearly converged), then multiplied by C.
-    Eigen::MatrixXd w(r.rows(), r.cols());
     apply_t(r, w);
-    for (int pass = 0; pass < 2; ++pass) w -= x * (x.transpose() * w);
-    Eigen::MatrixXd cw(w.rows(), w.cols());
+    for (int pass = 0; pass < 2; ++pass) {
+      const Eigen::MatrixXd overlap = x.transpose() * w;
+      w.noalias() -= x * overlap;
+    }
     apply_c(w, cw);
     result.products += static_cast<int>(w.cols());
     // Rayleigh-Ritz on [X, W, P]; only S^T S and S^T C S are formed (no orthonormalized copy).
-    const Eigen::Index cols = bx + w.cols() + p.cols();
-    Eigen::MatrixXd s(x.rows(), cols), cs(x.rows(), cols);
-    s << x, w, p;
-    cs << cx, cw, cp;
-    ritz = rayleigh_ritz(s.transpose() * s, s.transpose() * cs, b);
+    const Eigen::Index bw = w.cols(), bp = p.cols(), cols = bx + bw + bp;
+    s.middleCols(bx, bw) = w;
+    cs.middleCols(bx, bw) = cw;
+    s.middleCols(bx + bw, bp) = p;
+    cs.middleCols(bx + bw, bp) = cp;
+    const auto basis = s.leftCols(cols), image = cs.leftCols(cols);
+    ritz = rayleigh_ritz(basis.transpose() * basis, basis.transpose() * image, b);
+    const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
     // New X, and P = its part along W and P, formed as that combination: X_new - X c_x would
     // be the same in exact arithmetic, but it cancels as X converges and leaves P and C P
     // inconsistent (the iteration then diverges; seen at residuals near 1e-6).
-    const Eigen::Index tail = cols - bx;
-    p = s.rightCols(tail) * ritz.coordinates.bottomRows(tail);
-    cp = cs.rightCols(tail) * ritz.coordinates.bottomRows(tail);
-    x = s * ritz.coordinates;
-    cx = cs * ritz.coordinates;
+    for (Eigen::MatrixXd* m : {&next_x, &next_cx, &next_p, &next_cp}) m->resize(n, keep);
+    next_p.noalias() = basis.rightCols(tail) * ritz.coordinates.bottomRows(tail);
+    next_cp.noalias() = image.rightCols(tail) * ritz.coordinates.bottomRows(tail);
+    next_x.noalias() = basis * ritz.coordinates;
+    next_cx.noalias() = image * ritz.coordinates;
+    s.leftCols(keep) = next_x;
+    cs.leftCols(keep) = next_cx;
+    p.swap(next_p);
+    cp.swap(next_cp);
+    bx = keep;
     lambda = ritz.values;
   }
   result.values = lambda.head(std::min<Eigen::Index>(count, lambda.size()));
-  result.vectors = x.leftCols(result.values.size());
+  result.vectors = s.leftCols(result.values.size());
   return result;
 }
 

@@ -33,8 +33,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
                     double tolerance, int max_iterations,
                     const std::function<void(int, double)>& progress = nullptr);
 
-/// Bytes of the dense blocks lobpcg() holds for n rows and a block of b columns: X, CX, P,
-/// CP, R, W, CW (7 b) and the basis [X W P] with its image (6 b).
-inline double lobpcg_bytes(Eigen::Index n, Eigen::Index b) { return 13.0 * static_cast<double>(n) * b * sizeof(double); }
+/// Bytes of the dense blocks lobpcg() holds for n rows and a block of b columns: the basis
+/// [X W P] and its image (6 b), R, W, C W, P, C P and the next X, C X, P, C P (9 b), the start (b).
+inline double lobpcg_bytes(Eigen::Index n, Eigen::Index b) { return 16.0 * static_cast<double>(n) * b * sizeof(double); }
 
 }  // namespace digilap::detail

@@ -417,8 +417,10 @@ public:
     if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs: the preconditioner could not be factorized");
   }
   void apply_block(const Eigen::MatrixXd& r, Eigen::MatrixXd& out) const {
-    const Eigen::MatrixXd z = solver_.solve(sqrt_mass_.asDiagonal() * r);
-    out = sqrt_mass_.asDiagonal() * z + t_ * (sqrt_mass_.cwiseInverse().asDiagonal() * (stiffness_ * z));
+    scaled_.noalias() = sqrt_mass_.asDiagonal() * r;  // buffers reused: no page faults per call
+    z_ = solver_.solve(scaled_);
+    out.noalias() = stiffness_ * z_;
+    out = sqrt_mass_.asDiagonal() * z_ + t_ * (sqrt_mass_.cwiseInverse().asDiagonal() * out);
   }
 
 private:
@@ -426,6 +428,7 @@ private:
   double t_;
   Eigen::SparseMatrix<double> stiffness_;
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver_;
+  mutable Eigen::MatrixXd scaled_, z_;
 };
 
 }  // namespace

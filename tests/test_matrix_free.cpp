@@ -135,7 +135,7 @@ TEST(MatrixFree, EigenSolverReportsProgressAndRespectsTheMemoryLimit) {
   ASSERT_EQ(static_cast<int>(residuals.size()), lobpcg.iterations + 1);
   EXPECT_GT(residuals.front(), 1e3);  // a random start is far from converged
   EXPECT_LE(residuals.back(), 1.0);   // and the last one met the tolerance
-  // LOBPCG would hold 13 x 2108 x 15 doubles (3.3 MB), Lanczos 2 x 2108 x 50 (1.7 MB): a limit
+  // LOBPCG would hold 16 x 2108 x 15 doubles (4.0 MB), Lanczos 2 x 2108 x 50 (1.7 MB): a limit
   // between the two takes the Lanczos fallback, which must find the same eigenvalues (both
   // within 1e-10 c of the operator's); a limit below both is refused, naming the limit.
   o.progress = nullptr;

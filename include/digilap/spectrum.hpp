@@ -20,7 +20,7 @@ struct SpectrumOptions {
   int max_iterations = 1000; ///< Lanczos restarts allowed
   double tolerance = 1e-10;  ///< relative tolerance on the Ritz values
   int subspace = 0;          ///< Krylov subspace size; 0 = max(2 count + 1, 20), capped at N
-  /// Matrix-free solver only: the dense blocks it may allocate (LOBPCG holds about 13 blocks
+  /// Matrix-free solver only: the dense blocks it may allocate (LOBPCG holds about 16 blocks
   /// of N x (count + guard) doubles); above it, Lanczos (N x subspace), else digilap::Error.
   double memory_limit_bytes = 8.0 * (1ull << 30);
   /// Matrix-free solver only, optional: called after each LOBPCG iteration with the iteration
