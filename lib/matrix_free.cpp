@@ -351,13 +351,12 @@ public:
     op_.apply(z_.data(), w_.data());
     y = c * x + sqrt_mass_.cwiseProduct(w_);
   }
-  // Y = C X, column by column.
+  // Y = C X = -(0 I - C) X, column by column.
   void apply_block(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
     y.resize(x.rows(), x.cols());
     for (Eigen::Index k = 0; k < x.cols(); ++k) {
-      z_ = x.col(k).cwiseQuotient(sqrt_mass_);
-      op_.apply(z_.data(), w_.data());
-      y.col(k) = -sqrt_mass_.cwiseProduct(w_);
+      shifted(0.0, x.col(k).data(), y.col(k).data());
+      y.col(k) = -y.col(k);
     }
   }
 
