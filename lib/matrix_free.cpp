@@ -166,13 +166,15 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
       if (b >= 0 && a <= n - 1) piece(std::max<Eigen::Index>(a, 0), std::min(b, n - 1), 0.0);
       if (b >= n) piece(std::max(a, n) - n, b - n, P);                  // past its end
     };
-    auto moments_of = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double* m) {
+    // Moments of sources first..last of box k into m[0], m[stride], ... (stride > 1: a lane
+    // of a batch laid out moment-major).
+    auto moments_of = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double* m, int stride = 1) {
       const double* qa = Q + static_cast<std::size_t>(last) * p;
       if (first > ct.box_start[k]) {
         const double* qb = Q + static_cast<std::size_t>(first - 1) * p;
-        for (int q = 0; q < p; ++q) m[q] = qa[q] - qb[q];
+        for (int q = 0; q < p; ++q) m[q * stride] = qa[q] - qb[q];
       } else {
-        for (int q = 0; q < p; ++q) m[q] = qa[q];
+        for (int q = 0; q < p; ++q) m[q * stride] = qa[q];
       }
     };
     // h_0 .. h_{count-1} at u: h_n(u) = H_n(u) exp(-u^2).
@@ -269,13 +271,7 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
               continue;
             }
             const Job& job = jobs[b + l];
-            const double* qa = Q + static_cast<std::size_t>(job.last) * p;
-            if (job.first > ct.box_start[job.box]) {
-              const double* qb = Q + static_cast<std::size_t>(job.first - 1) * p;
-              for (int q = 0; q < p; ++q) mom[q][l] = qa[q] - qb[q];
-            } else {
-              for (int q = 0; q < p; ++q) mom[q][l] = qa[q];
-            }
+            moments_of(job.box, job.first, job.last, &mom[0][l], kBatch);
             u[l] = job.u;
           }
           for (int l = 0; l < kBatch; ++l) h0[l] = u[l] * u[l];
@@ -398,13 +394,13 @@ public:
     const Eigen::VectorXd& s = op.arclength();
     for (std::size_t c = 0; c < lengths.size(); ++c) {
       const Eigen::Index first = op.row_offset()[c], count = op.row_offset()[c + 1] - first;
-      const double floor = 1e-6 * lengths[c] / count;  // coincident rows: a large, finite weight
+      const double min_ds = 1e-6 * lengths[c] / count;  // coincident rows: a large, finite weight
       for (Eigen::Index a = 0; a < count; ++a) {
         const Eigen::Index i = first + a, j = first + (a + 1) % count;
         if (i == j) continue;
         double ds = s[j] - s[i];
         if (a + 1 == count) ds += lengths[c];
-        const double w = 1.0 / std::max(ds, floor);
+        const double w = 1.0 / std::max(ds, min_ds);
         for (auto [r, col, v] : {std::tuple{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}}) k_entries.emplace_back(r, col, v);
       }
     }
