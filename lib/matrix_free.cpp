@@ -34,6 +34,26 @@ int hermite_order(double rho, double epsilon) {
   }
   return 63;  // the moment buffers hold 64
 }
+
+// Smallest order q whose remainder of the series sum_n x^n / n! (x = 2 |alpha beta| at the
+// window ends), times the bound `gaussian` on the factored Gaussian, is below epsilon:
+// gaussian e^x x^q / q! / (1 - x / (q + 1)). Returns kMaxBandOrder + 1 when none is.
+constexpr int kMaxBandOrder = 24;
+int band_series_order(double x, double gaussian, double epsilon) {
+  double term = gaussian * std::exp(x);  // gaussian e^x x^q / q!
+  for (int q = 1; q <= kMaxBandOrder; ++q) {
+    term *= x / q;
+    if (x < q + 1 && term / (1 - x / (q + 1)) <= epsilon) return q;
+  }
+  return kMaxBandOrder + 1;
+}
+
+// h_0 .. h_{count-1} at u: h_n(u) = H_n(u) exp(-u^2).
+void hermite_functions(double u, int count, double* h) {
+  h[0] = std::exp(-u * u);
+  if (count > 1) h[1] = 2 * u * h[0];
+  for (int q = 1; q + 1 < count; ++q) h[q + 1] = 2 * u * h[q] - 2 * q * h[q - 1];
+}
 }  // namespace
 
 MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures,
@@ -50,11 +70,19 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   t_ = heat_time(contours.h, options);
   cut_ = options.k * std::sqrt(t_);
   delta_ = std::sqrt(4 * t_);
-  box_ = 0.5 * delta_;  // sources within a quarter of delta of their box centre
-  // Sources and targets both lie within a quarter of delta of their box centres; the Hermite
-  // and the Taylor truncations each get a tenth of the budget.
-  order_ = hermite_order(0.25, 0.1 * epsilon);
+  // Boxes of width <= delta / 2: sources and targets within a quarter of delta of their box
+  // centre. At most a third of the cut, so that the two ends of a box's windows stay apart.
+  box_ = std::min(0.5 * delta_, cut_ / 3);
+  // The Hermite (whole boxes), the Taylor (their sum at a target) and the band (window ends)
+  // truncations each get a tenth of the budget.
+  order_ = hermite_order(0.5 * box_ / delta_, 0.1 * epsilon);
   scale_ = 1.0 / (t_ * std::sqrt(4 * kPi * t_));
+  const int terms = 2 * order_ - 1;
+  reach_ = static_cast<Eigen::Index>(std::ceil(cut_ / box_)) + 2;
+  hermite_at_offset_.resize(static_cast<std::size_t>(2 * reach_ + 1) * terms);
+  for (Eigen::Index d = -reach_; d <= reach_; ++d)
+    hermite_functions(static_cast<double>(d) * box_ / delta_, terms,
+                      &hermite_at_offset_[static_cast<std::size_t>(d + reach_) * terms]);
 
   const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
   mass_ = e.mu;
@@ -64,6 +92,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   const Eigen::Index n_all = mass_.size();
   back_.assign(static_cast<std::size_t>(n_all), 0);
   fwd_.assign(static_cast<std::size_t>(n_all), 0);
+  alpha_ = tau_forward_ = tau_backward_ = Eigen::VectorXd::Zero(n_all);
   for (std::size_t c = 0; c + 1 < offset_.size(); ++c) {
     Contour ct;
     ct.offset = offset_[c];
@@ -78,17 +107,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     }
     ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / box_));
     ct.direct = cut_ >= 0.5 * ct.P || ct.n < 64 || ct.boxes < 8;
-    if (!ct.direct) {
-      ct.box_of.resize(static_cast<std::size_t>(ct.n));
-      ct.box_start.assign(static_cast<std::size_t>(ct.boxes + 1), ct.n);
-      for (Eigen::Index j = ct.n - 1; j >= 0; --j) {
-        const Eigen::Index k = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(s[j] / box_), 0, ct.boxes - 1);
-        ct.box_of[j] = k;
-        ct.box_start[k] = j;
-      }
-      // Empty boxes start where the next non-empty one does.
-      for (Eigen::Index k = ct.boxes - 1; k >= 0; --k) ct.box_start[k] = std::min(ct.box_start[k], ct.box_start[k + 1]);
-    }
+    if (!ct.direct) plan_contour(ct, epsilon);
     contours_.push_back(std::move(ct));
   }
   transform_of_mass_.resize(n_all);
@@ -97,200 +116,263 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   diagonal_ = -scale_ * (transform_of_mass_ - mass_);
 }
 
-void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
-  const int p = order_;
+double MatrixFreeLaplacian::direct_share() const {
+  Eigen::Index direct = 0;
   for (const Contour& ct : contours_) {
+    if (ct.direct) {
+      direct += ct.n;
+      continue;
+    }
+    for (std::size_t k = 0; k < ct.plan.size(); ++k)
+      if (ct.plan[k].direct) direct += ct.box_start[k + 1] - ct.box_start[k];
+  }
+  return rows() > 0 ? static_cast<double>(direct) / static_cast<double>(rows()) : 0.0;
+}
+
+// The window of target i is the sources lo(i) = i - back_i .. hi(i) = i + fwd_i (unwrapped).
+// For the targets i0..i1 of a box, the whole source boxes between the box holding max lo(i)
+// and the box holding min hi(i) are seen by all of them (the core); the rest of each window
+// lies in two bands: forward [first of the box holding min hi, hi(i)] and backward
+// [lo(i), last of the box holding max lo]. A band spans at most about two boxes, at distance
+// ~cut from the targets. With E its centre, c the target box's centre, alpha = (s_i - c) / delta,
+// beta = (s_j - E) / delta and D = (E - c) / delta:
+//   exp(-(s_j - s_i)^2 / delta^2) = exp(-(D + beta)^2) exp(2 D alpha - alpha^2) exp(2 alpha beta),
+// and exp(2 alpha beta) = sum_n (2 alpha beta)^n / n! converges fast (|2 alpha beta| <= 1/4).
+// The first factor is a weight of the source, the second of the target: the band contributes
+// tau_i sum_n alpha_i^n M_n(i), with M_n(i) the moments sum w_j (2 beta_j)^n / n! over the
+// part of the band in i's window, a prefix (forward) or suffix (backward) sum.
+void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
+  const double* s = s_.data() + ct.offset;
+  const Eigen::Index n = ct.n;
+  ct.box_of.resize(static_cast<std::size_t>(n));
+  ct.box_start.assign(static_cast<std::size_t>(ct.boxes + 1), n);
+  for (Eigen::Index j = n - 1; j >= 0; --j) {
+    const Eigen::Index k = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(s[j] / box_), 0, ct.boxes - 1);
+    ct.box_of[j] = k;
+    ct.box_start[k] = j;
+  }
+  // Empty boxes start where the next non-empty one does.
+  for (Eigen::Index k = ct.boxes - 1; k >= 0; --k) ct.box_start[k] = std::min(ct.box_start[k], ct.box_start[k + 1]);
+
+  // Unwrapped indices u in [-n, 2n): element u mod n, its position shifted by a period.
+  auto wraps = [n](Eigen::Index u) -> Eigen::Index { return u < 0 ? -1 : (u >= n ? 1 : 0); };
+  auto position = [&](Eigen::Index u) { return s[u - wraps(u) * n] + static_cast<double>(wraps(u)) * ct.P; };
+  auto box_first = [&](Eigen::Index u) { return ct.box_start[ct.box_of[u - wraps(u) * n]] + wraps(u) * n; };
+  auto box_last = [&](Eigen::Index u) { return ct.box_start[ct.box_of[u - wraps(u) * n] + 1] - 1 + wraps(u) * n; };
+
+  ct.plan.assign(static_cast<std::size_t>(ct.boxes), TargetBox{});
+  for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
+    const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
+    if (i0 > i1) continue;
+    TargetBox& tb = ct.plan[kt];
+    const double centre = (kt + 0.5) * box_;
+    Eigen::Index lo_min = 2 * n, hi_max = -n, core_lo = -n, core_hi = 2 * n;
+    double alpha_max = 0;
+    for (Eigen::Index i = i0; i <= i1; ++i) {
+      const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+      lo_min = std::min(lo_min, lo);
+      hi_max = std::max(hi_max, hi);
+      core_lo = std::max(core_lo, lo);
+      core_hi = std::min(core_hi, hi);
+      alpha_max = std::max(alpha_max, std::abs(s[i] - centre) / delta_);
+    }
+    tb.direct = true;  // unless the split below is sound
+    if (core_lo > core_hi || lo_min < -n || hi_max >= 2 * n) continue;
+    const Eigen::Index forward_lo = box_first(core_hi), backward_hi = box_last(core_lo);
+    if (backward_hi >= forward_lo) continue;  // the two ends overlap: no core in between
+    tb.core_lo = backward_hi + 1;
+    tb.core_hi = forward_lo - 1;
+    tb.forward = {forward_lo, hi_max};
+    tb.backward = {lo_min, backward_hi};
+    // Band centres, half widths and offsets from the box (in units of delta).
+    double centre_of[2], half[2], offset[2];
+    const Band* bands[2] = {&tb.forward, &tb.backward};
+    for (int b = 0; b < 2; ++b) {
+      const double first = position(bands[b]->lo), last = position(bands[b]->hi);
+      centre_of[b] = 0.5 * (first + last);
+      half[b] = 0.5 * (last - first) / delta_;
+      offset[b] = (centre_of[b] - centre) / delta_;
+    }
+    // Error of the band series: every term of the exact sum is |f_j| G_ij, and the factored
+    // form errs by at most |f_j| G_ij e^(-2 alpha beta) times the series' remainder, with
+    // G_ij <= exp(-(|D| - |beta| - |alpha|)^2) when that distance is positive.
+    const double x = 2 * alpha_max * std::max(half[0], half[1]);
+    const double distance = std::max(0.0, std::min(std::abs(offset[0]) - half[0], std::abs(offset[1]) - half[1]) - alpha_max);
+    const int order = band_series_order(x, std::exp(-distance * distance), 0.1 * epsilon);
+    if (order > kMaxBandOrder) continue;
+    tb.direct = false;
+    band_order_ = std::max(band_order_, order);
+    for (int b = 0; b < 2; ++b) {
+      Band& band = b == 0 ? tb.forward : tb.backward;
+      band.data = band_beta_.size();
+      for (Eigen::Index u = band.lo; u <= band.hi; ++u) {
+        const double x_u = position(u);
+        band_beta_.push_back((x_u - centre_of[b]) / delta_);
+        const double d = (x_u - centre) / delta_;
+        band_weight_.push_back(std::exp(-d * d));
+      }
+    }
+    for (Eigen::Index i = i0; i <= i1; ++i) {
+      const double a = (s[i] - centre) / delta_;
+      alpha_[ct.offset + i] = a;
+      tau_forward_[ct.offset + i] = std::exp(2 * offset[0] * a - a * a);
+      tau_backward_[ct.offset + i] = std::exp(2 * offset[1] * a - a * a);
+    }
+  }
+}
+
+void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* f,
+                                      double* out) const {
+  const double* s = s_.data() + ct.offset;
+  const double* fc = f + ct.offset;
+  const Eigen::Index n = ct.n;
+  const double inv_4t = 1.0 / (4 * t_);
+  for (Eigen::Index i = i0; i <= i1; ++i) {
+    double sum = 0;
+    for (Eigen::Index m = -back_[ct.offset + i]; m <= fwd_[ct.offset + i]; ++m) {
+      const Eigen::Index j = ((i + m) % n + n) % n;
+      const double d = detail::cyclic_distance(s[i], s[j], ct.P);
+      sum += std::exp(-d * d * inv_4t) * fc[j];
+    }
+    out[ct.offset + i] = sum;
+  }
+}
+
+void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
+  const int p = order_, q_band = band_order_, terms = 2 * p - 1;
+  double inverse_factorial[64];
+  inverse_factorial[0] = 1;
+  for (int q = 1; q < 64; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
+  const double inv_delta = 1.0 / delta_;
+  for (const Contour& ct : contours_) {
+    if (ct.direct) {
+#pragma omp parallel for schedule(dynamic, 64)
+      for (Eigen::Index i = 0; i < ct.n; ++i) direct_sums(ct, i, i, f, out);
+      continue;
+    }
     const double* s = s_.data() + ct.offset;
     const double* fc = f + ct.offset;
     double* oc = out + ct.offset;
     const Eigen::Index n = ct.n;
-    const double inv_4t = 1.0 / (4 * t_);
-    if (ct.direct) {
-#pragma omp parallel for schedule(dynamic, 64)
-      for (Eigen::Index i = 0; i < n; ++i) {
-        double sum = 0;
-        for (Eigen::Index m = -back_[ct.offset + i]; m <= fwd_[ct.offset + i]; ++m) {
-          const Eigen::Index j = ((i + m) % n + n) % n;
-          const double d = detail::cyclic_distance(s[i], s[j], ct.P);
-          sum += std::exp(-d * d * inv_4t) * fc[j];
-        }
-        oc[i] = sum;
-      }
-      continue;
-    }
-    // 1. Prefix sums, box by box, of the Hermite moments f_j v_j^n / n!, v_j = (s_j - c_k) / delta.
-    // Reused between products: allocating (and page-faulting) N x p doubles each time cost
-    // more than the transform with two threads.
-    prefix_.resize(std::max(prefix_.size(), static_cast<std::size_t>(n) * p));
-    double* Q = prefix_.data();
-    double inverse_factorial[64];
-    inverse_factorial[0] = 1;
-    for (int q = 1; q < p; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
-    const double inv_delta = 1.0 / delta_;
+    // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta.
+    box_moments_.resize(std::max(box_moments_.size(), static_cast<std::size_t>(ct.boxes) * p));
+    double* H = box_moments_.data();
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < ct.boxes; ++k) {
       const double centre = (k + 0.5) * box_;
       double acc[64] = {0}, power[64];
       for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
         // f_j v^q as four interleaved chains (v^q = v^(q-4) v^4): one chain of p dependent
-        // products per source was the hot spot. 1/q! from a table (a division per term was).
+        // products per source was the hot spot.
         const double v = (s[j] - centre) * inv_delta, v2 = v * v, v4 = v2 * v2;
         power[0] = fc[j];
         power[1] = power[0] * v;
         power[2] = power[0] * v2;
         power[3] = power[1] * v2;
         for (int q = 4; q < p; ++q) power[q] = power[q - 4] * v4;
-        double* row = Q + static_cast<std::size_t>(j) * p;
-        for (int q = 0; q < p; ++q) {
-          acc[q] += power[q] * inverse_factorial[q];
-          row[q] = acc[q];
-        }
+        for (int q = 0; q < p; ++q) acc[q] += power[q];
       }
+      for (int q = 0; q < p; ++q) H[k * p + q] = acc[q] * inverse_factorial[q];
     }
-    // 2. Targets box by box. The sources every target of a box sees (the "core" of their
-    // windows) are gathered once into a Taylor expansion about the box centre (Hermite to
-    // Taylor translation, O(p^2) per source box): each target then pays O(p) for them. The few
-    // sources near the ends of its own window (the "edges", where the windows of the box's
-    // targets differ) are evaluated from their Hermite moments, as is the whole window when the
-    // core is empty. The window of every row is thus summed exactly as the explicit matrix does.
+    // 2. Targets box by box.
     const double P = ct.P;
     auto for_segments = [&](Eigen::Index a, Eigen::Index b, auto&& segment) {  // unwrapped a..b
       auto piece = [&](Eigen::Index pa, Eigen::Index pb, double shift) {
-        for (Eigen::Index k = ct.box_of[pa]; k <= ct.box_of[pb]; ++k) {
-          const Eigen::Index first = std::max(pa, ct.box_start[k]), last = std::min(pb, ct.box_start[k + 1] - 1);
-          if (first <= last) segment(k, first, last, shift);
-        }
+        for (Eigen::Index k = ct.box_of[pa]; k <= ct.box_of[pb]; ++k)
+          if (ct.box_start[k] < ct.box_start[k + 1]) segment(k, shift);
       };
       if (a > b) return;
       if (a < 0) piece(a + n, std::min<Eigen::Index>(b, -1) + n, -P);  // behind the contour's start
       if (b >= 0 && a <= n - 1) piece(std::max<Eigen::Index>(a, 0), std::min(b, n - 1), 0.0);
       if (b >= n) piece(std::max(a, n) - n, b - n, P);                  // past its end
     };
-    // Moments of sources first..last of box k into m[0], m[stride], ... (stride > 1: a lane
-    // of a batch laid out moment-major).
-    auto moments_of = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double* m, int stride = 1) {
-      const double* qa = Q + static_cast<std::size_t>(last) * p;
-      if (first > ct.box_start[k]) {
-        const double* qb = Q + static_cast<std::size_t>(first - 1) * p;
-        for (int q = 0; q < p; ++q) m[q * stride] = qa[q] - qb[q];
-      } else {
-        for (int q = 0; q < p; ++q) m[q * stride] = qa[q];
-      }
-    };
-    // h_0 .. h_{count-1} at u: h_n(u) = H_n(u) exp(-u^2).
-    auto hermite = [](double u, int count, double* h) {
-      h[0] = std::exp(-u * u);
-      if (count > 1) h[1] = 2 * u * h[0];
-      for (int q = 1; q + 1 < count; ++q) h[q + 1] = 2 * u * h[q] - 2 * q * h[q - 1];
-    };
-    // Core source boxes sit at whole box offsets d from the target box (u = d box / delta), so
-    // their Hermite values are tabulated once per product; only the segments that wrap
-    // around the contour's ends (shifted by P) are evaluated on the spot.
-    const int terms = 2 * p - 1;
-    const auto reach = static_cast<Eigen::Index>(std::ceil(cut_ / box_)) + 2;
-    std::vector<double> hermite_at_offset(static_cast<std::size_t>(2 * reach + 1) * terms);
-    for (Eigen::Index d = -reach; d <= reach; ++d)
-      hermite(static_cast<double>(d) * box_ / delta_, terms, &hermite_at_offset[static_cast<std::size_t>(d + reach) * terms]);
 #pragma omp parallel
     {
-      double moments[64], h_wrapped[128], local[64];
-      struct Job {
-        Eigen::Index target, box, first, last;
-        double u;
+      double h_wrapped[128], local[64];
+      std::vector<double> forward_rows, backward_rows;
+      // Moments sum w_j (2 beta_j)^n / n!, n < q_band, of the sources of a band, accumulated in
+      // the band's order (forward: prefix sums) or against it (backward: suffix sums): row r
+      // holds the sum over the band's first (last) r + 1 sources.
+      auto band_moments = [&](const Band& band, bool prefix, std::vector<double>& rows) {
+        const Eigen::Index count = band.hi - band.lo + 1;
+        rows.resize(static_cast<std::size_t>(count) * q_band);
+        const double* beta = band_beta_.data() + band.data;
+        const double* weight = band_weight_.data() + band.data;
+        double acc[kMaxBandOrder + 1] = {0};
+        for (Eigen::Index r = 0; r < count; ++r) {
+          const Eigen::Index v = prefix ? r : count - 1 - r;
+          const Eigen::Index u = band.lo + v;
+          const Eigen::Index j = u < 0 ? u + n : (u >= n ? u - n : u);
+          // w (2 beta)^q as four interleaved chains, then 1 / q! from a table.
+          const double b = 2 * beta[v], b2 = b * b, b4 = b2 * b2;
+          double power[kMaxBandOrder + 4];
+          power[0] = fc[j] * weight[v];
+          power[1] = power[0] * b;
+          power[2] = power[0] * b2;
+          power[3] = power[1] * b2;
+          for (int q = 4; q < q_band; ++q) power[q] = power[q - 4] * b4;
+          double* row = rows.data() + static_cast<std::size_t>(v) * q_band;
+          for (int q = 0; q < q_band; ++q) {
+            acc[q] += power[q] * inverse_factorial[q];
+            row[q] = acc[q];
+          }
+        }
       };
-      constexpr int kBatch = 8;
-      std::vector<Job> jobs;
-      std::vector<double> offsets;  // (s_i - centre) / delta for the targets of a box
 #pragma omp for schedule(dynamic, 4)
       for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
         const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
         if (i0 > i1) continue;
+        const TargetBox& tb = ct.plan[kt];
+        if (tb.direct) {
+          direct_sums(ct, i0, i1, f, out);
+          continue;
+        }
         const double centre = (kt + 0.5) * box_;
-        Eigen::Index core_lo = -n, core_hi = 2 * n;  // the intersection of the windows of i0..i1
-        for (Eigen::Index i = i0; i <= i1; ++i) {
-          core_lo = std::max(core_lo, i - back_[ct.offset + i]);
-          core_hi = std::min(core_hi, i + fwd_[ct.offset + i]);
-        }
-        const bool core = core_lo <= core_hi;
+        // The core's whole boxes: Hermite to Taylor translation about the box centre,
+        // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
         for (int q = 0; q < p; ++q) local[q] = 0;
-        if (core)
-          for_segments(core_lo, core_hi, [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
-            moments_of(k, first, last, moments);
-            const Eigen::Index d = kt - k;
-            const double* h = h_wrapped;
-            if (shift == 0.0 && d >= -reach && d <= reach)
-              h = hermite_at_offset.data() + static_cast<std::size_t>(d + reach) * terms;
-            else
-              hermite((centre - ((k + 0.5) * box_ + shift)) / delta_, terms, h_wrapped);
-            // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
-            double factor = 1.0;
-            for (int m = 0; m < p; ++m) {
-              double sum = 0;
-              for (int q = 0; q < p; ++q) sum += moments[q] * h[q + m];
-              local[m] += factor * sum;
-              factor *= -1.0 / (m + 1);
-            }
-          });
-        // Window ends are queued, then evaluated kBatch at a time: the Hermite recurrence is
-        // a chain of dependent multiply-adds, and running kBatch independent chains side by
-        // side (vectorized) hides its latency, which otherwise dominates.
-        jobs.clear();
-        for (Eigen::Index i = i0; i <= i1; ++i) {
-          auto queue = [&](Eigen::Index k, Eigen::Index first, Eigen::Index last, double shift) {
-            jobs.push_back({i, k, first, last, (s[i] - ((k + 0.5) * box_ + shift)) / delta_});
-          };
-          const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
-          if (core) {
-            for_segments(lo, core_lo - 1, queue);
-            for_segments(core_hi + 1, hi, queue);
-          } else {
-            for_segments(lo, hi, queue);
+        for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
+          const Eigen::Index d = kt - k;
+          const double* h = h_wrapped;
+          if (shift == 0.0 && d >= -reach_ && d <= reach_)
+            h = hermite_at_offset_.data() + static_cast<std::size_t>(d + reach_) * terms;
+          else
+            hermite_functions((centre - ((k + 0.5) * box_ + shift)) / delta_, terms, h_wrapped);
+          const double* moments = H + k * p;
+          double factor = 1.0;
+          for (int m = 0; m < p; ++m) {
+            double sum = 0;
+            for (int q = 0; q < p; ++q) sum += moments[q] * h[q + m];
+            local[m] += factor * sum;
+            factor *= -1.0 / (m + 1);
           }
-          oc[i] = 0;
-        }
+        });
         // The core's Taylor expansion at every target of the box: Horner steps in lockstep
         // across targets (one dependent chain per target otherwise).
-        if (core) {
-          const Eigen::Index count = i1 - i0 + 1;
-          offsets.resize(static_cast<std::size_t>(count));
-          double* w = offsets.data();
-          for (Eigen::Index i = 0; i < count; ++i) w[i] = (s[i0 + i] - centre) / delta_;
-          double* out_box = oc + i0;
-          for (int m = p - 1; m >= 0; --m) {
-            const double coefficient = local[m];
+        const Eigen::Index count = i1 - i0 + 1;
+        const double* alpha = alpha_.data() + ct.offset + i0;
+        double* out_box = oc + i0;
+        for (Eigen::Index i = 0; i < count; ++i) out_box[i] = 0;
+        for (int m = p - 1; m >= 0; --m) {
+          const double coefficient = local[m];
 #pragma omp simd
-            for (Eigen::Index i = 0; i < count; ++i) out_box[i] = out_box[i] * w[i] + coefficient;
-          }
+          for (Eigen::Index i = 0; i < count; ++i) out_box[i] = out_box[i] * alpha[i] + coefficient;
         }
-        for (std::size_t b = 0; b < jobs.size(); b += kBatch) {
-          const int lanes = static_cast<int>(std::min<std::size_t>(kBatch, jobs.size() - b));
-          double mom[64][kBatch], u[kBatch] = {}, h0[kBatch], h1[kBatch], acc[kBatch];
-          for (int l = 0; l < kBatch; ++l) {
-            if (l >= lanes) {  // idle lanes: zero moments (not the whole 64 x kBatch block)
-              for (int q = 0; q < p; ++q) mom[q][l] = 0;
-              continue;
-            }
-            const Job& job = jobs[b + l];
-            moments_of(job.box, job.first, job.last, &mom[0][l], kBatch);
-            u[l] = job.u;
+        // The two bands: each target reads the moments of its part of the band.
+        band_moments(tb.forward, true, forward_rows);
+        band_moments(tb.backward, false, backward_rows);
+        const double* tau_f = tau_forward_.data() + ct.offset + i0;
+        const double* tau_b = tau_backward_.data() + ct.offset + i0;
+        for (Eigen::Index i = 0; i < count; ++i) {
+          const Eigen::Index row = ct.offset + i0 + i;
+          const double* mf = forward_rows.data() + static_cast<std::size_t>(i0 + i + fwd_[row] - tb.forward.lo) * q_band;
+          const double* mb = backward_rows.data() + static_cast<std::size_t>(i0 + i - back_[row] - tb.backward.lo) * q_band;
+          double sf = 0, sb = 0;
+          for (int q = q_band - 1; q >= 0; --q) {
+            sf = sf * alpha[i] + mf[q];
+            sb = sb * alpha[i] + mb[q];
           }
-          for (int l = 0; l < kBatch; ++l) h0[l] = u[l] * u[l];
-          gaussian_weights(h0, kBatch, 1.0, 1.0);  // exp(-u^2), kBatch at a time (libmvec)
-#pragma omp simd
-          for (int l = 0; l < kBatch; ++l) {
-            h1[l] = 2 * u[l] * h0[l];
-            acc[l] = mom[0][l] * h0[l] + mom[1][l] * h1[l];
-          }
-          for (int q = 1; q + 1 < p; ++q) {
-#pragma omp simd
-            for (int l = 0; l < kBatch; ++l) {
-              const double h2 = 2 * u[l] * h1[l] - 2 * q * h0[l];
-              acc[l] += mom[q + 1][l] * h2;
-              h0[l] = h1[l];
-              h1[l] = h2;
-            }
-          }
-          for (int l = 0; l < lanes; ++l) oc[jobs[b + l].target] += acc[l];
+          out_box[i] += tau_f[i] * sf + tau_b[i] * sb;
         }
       }
     }

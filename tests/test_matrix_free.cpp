@@ -6,8 +6,11 @@
 #include "digilap/spectrum.hpp"
 
 #include <gtest/gtest.h>
+#include <omp.h>
 
 #include <cmath>
+#include <cstring>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -51,6 +54,80 @@ TEST(MatrixFree, AgreesWithTheExplicitOperatorToEpsilonOnEveryReferenceShape) {
                   1e-10 * op.A.diagonal().cwiseAbs().maxCoeff() * rough.cwiseAbs().maxCoeff());
       }
     }
+  }
+}
+
+// The windows' ends go through the band series (direct_share() == 0: no silent fallback to
+// term-by-term sums) for short and long windows, slow and fast heat, several contours, and
+// contour seams; each must agree with the explicit matrix within epsilon of its scale.
+TEST(MatrixFree, WindowEndSeriesAgreesForEveryWindowWidth) {
+  auto check = [](const ContourSet& contours, const Measures& mu, const HeatLaplacianOptions& o, const std::string& what) {
+    const ContourOperator op = heat_laplacian(contours, mu, o);
+    const MatrixFreeLaplacian mf(contours, mu, o, 1e-10);
+    EXPECT_EQ(mf.direct_share(), 0.0) << what;
+    EXPECT_GE(mf.band_order(), 1) << what;
+    EXPECT_LE(mf.band_order(), 12) << what;  // |2 alpha beta| <= 1/4 needs ~8 terms at 1e-11
+    const Eigen::VectorXd g = Eigen::VectorXd::Random(op.rows());
+    const double scale = op.L.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
+    EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * scale) << what;
+  };
+  const Pipeline flower = pipeline(AccFlower(), 0.005);
+  for (double k : {1.0, 2.0, 3.0, 10.0})
+    for (double c_t : {0.01, 0.3}) {
+      HeatLaplacianOptions o;
+      o.k = k;
+      o.c_t = c_t;
+      check(flower.contours, flower.mu, o, "accflower k " + std::to_string(k) + " c_t " + std::to_string(c_t));
+    }
+  // Three contours (an annulus and a disc) on a pixel grid.
+  const int size = 300;
+  std::vector<std::uint8_t> bitmap(static_cast<std::size_t>(size) * size, 0);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double r = std::hypot(x - 110.5, y - 150.5), d = std::hypot(x - 250.5, y - 150.5);
+      bitmap[static_cast<std::size_t>(y) * size + x] = (r < 100 && r > 45) || d < 35;
+    }
+  const DigitalSet set = DigitalSet::from_bitmap(1.0 / size, size, size, bitmap);
+  const ContourSet contours = track_contours(set);
+  ASSERT_EQ(contours.contours.size(), 3u);
+  const Measures mu = measures(contours, ii_normals(set, contours));
+  for (auto placement : {Placement::Pointels, Placement::Linels}) {
+    HeatLaplacianOptions o;
+    o.placement = placement;
+    check(contours, mu, o, "annulus and disc");
+  }
+}
+
+// Windows about one element wide: the ends of a box's windows overlap, so those boxes are
+// summed term by term, and the result is still the explicit matrix's.
+TEST(MatrixFree, BoxesWhoseWindowEndsOverlapAreSummedDirectly) {
+  const Pipeline s = pipeline(Flower(), 0.05);
+  HeatLaplacianOptions o;
+  o.k = 0.5;
+  const ContourOperator op = heat_laplacian(s.contours, s.mu, o);
+  const MatrixFreeLaplacian mf(s.contours, s.mu, o);
+  EXPECT_GT(mf.direct_share(), 0.1);
+  EXPECT_LT(mf.direct_share(), 1.0);
+  const Eigen::VectorXd g = Eigen::VectorXd::Random(op.rows());
+  EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * op.L.diagonal().cwiseAbs().maxCoeff());
+}
+
+// Every row is computed by one thread from per-box sums in a fixed order: the product must
+// not depend on the number of threads, bit for bit (also with boxes summed directly, k = 0.5).
+TEST(MatrixFree, BitwiseIdenticalForOneAndTwoThreads) {
+  const Pipeline s = pipeline(Flower(), 0.002);
+  for (double k : {6.0, 0.5}) {
+    HeatLaplacianOptions o;
+    o.k = k;
+    omp_set_num_threads(1);
+    const MatrixFreeLaplacian one(s.contours, s.mu, o);
+    const Eigen::VectorXd g = Eigen::VectorXd::Random(one.rows());
+    const Eigen::VectorXd y1 = one * g;
+    omp_set_num_threads(2);
+    const MatrixFreeLaplacian two(s.contours, s.mu, o);
+    const Eigen::VectorXd y2 = two * g;
+    EXPECT_EQ(std::memcmp(y1.data(), y2.data(), sizeof(double) * y1.size()), 0) << "k " << k;
+    EXPECT_EQ(std::memcmp(one.diagonal().data(), two.diagonal().data(), sizeof(double) * y1.size()), 0) << "k " << k;
   }
 }
 

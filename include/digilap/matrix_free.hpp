@@ -4,10 +4,13 @@
 // In geodesic mode, (L g)_i = c [ (G * (mu g))_i - g_i (G * mu)_i ], a Gaussian convolution
 // of mu g over the sorted positions S_j along each (periodic) contour, truncated at k sqrt(t)
 // exactly as the explicit matrix is (the same window of neighbours, element for element). The
-// convolution uses Hermite expansions of the sources of boxes of width sqrt(t), whose moments
-// over any run of consecutive sources come from prefix sums; the expansion order p is the
-// smallest that meets the error bound epsilon (default 1e-10, relative to the operator's
-// scale max|L_ii| max|g|). Contours whose window covers half of them are summed directly.
+// convolution splits each window into whole boxes of width <= sqrt(t), which every target of
+// a box sees (Hermite expansions translated to a Taylor expansion about the box), and its two
+// ends, where the windows of the box's targets differ (a series in the product of the target's
+// and the source's offsets, after the Gaussian is factored about the end's centre: ~8 terms).
+// Orders are the smallest that meet the error bound epsilon (default 1e-10, relative to the
+// operator's scale max|L_ii| max|g|). Contours whose window covers half of them are summed
+// directly.
 #pragma once
 
 #include "digilap/heat_laplacian.hpp"
@@ -30,8 +33,12 @@ public:
   Eigen::Index cols() const { return mass_.size(); }
   double t() const { return t_; }
   double cut() const { return cut_; }
-  /// Hermite expansion order used.
+  /// Hermite expansion order used for whole boxes.
   int order() const { return order_; }
+  /// Series order used at the window ends (0 when every contour is summed directly).
+  int band_order() const { return band_order_; }
+  /// Share of the rows whose window is summed term by term (small contours, degenerate boxes).
+  double direct_share() const;
   const Eigen::VectorXd& mass() const { return mass_; }
   /// The diagonal of L (to the same accuracy).
   const Eigen::VectorXd& diagonal() const { return diagonal_; }
@@ -50,16 +57,32 @@ public:
   Eigen::VectorXd apply_stiffness(const Eigen::VectorXd& x) const;
 
 private:
+  // One end of the windows of the targets of a box: the sources lo..hi (indices unwrapped
+  // around the contour), expanded about their centre (see gauss_transform).
+  struct Band {
+    Eigen::Index lo = 0, hi = -1;
+    std::size_t data = 0;  // its first entry in band_beta_ / band_weight_
+  };
+  struct TargetBox {
+    bool direct = false;                     // summed term by term (degenerate geometry)
+    Eigen::Index core_lo = 0, core_hi = -1;  // the whole source boxes every target sees
+    Band forward, backward;                  // the window ends beyond them
+  };
   struct Contour {
     Eigen::Index offset = 0, n = 0;
     double P = 0;
-    bool direct = false;             // window >= half the contour, or tiny: direct sums
+    bool direct = false;  // window >= half the contour, or tiny: direct sums
     Eigen::Index boxes = 0;
     std::vector<Eigen::Index> box_start;  // first element of each box (size boxes + 1)
     std::vector<Eigen::Index> box_of;     // box of each element
+    std::vector<TargetBox> plan;          // per target box
   };
+  // The geometric part of the transform, fixed by the positions: per target box its core and
+  // its two bands, with their expansion weights; per target its offset and band factors.
+  void plan_contour(Contour& ct, double epsilon);
   // (G * f)_i over the window of each row i (j = i included), into out.
   void gauss_transform(const double* f, double* out) const;
+  void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* f, double* out) const;
 
   std::vector<Contour> contours_;
   std::vector<Eigen::Index> offset_;
@@ -67,10 +90,14 @@ private:
   Eigen::MatrixX2d positions_;
   std::vector<Eigen::Index> back_, fwd_;  // the geodesic window of each row
   double t_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
-  int order_ = 0;
-  // Scratch reused by every product: prefix moments (N x order), mu x and its transform.
+  int order_ = 0, band_order_ = 0;
+  Eigen::Index reach_ = 0;
+  std::vector<double> hermite_at_offset_;  // h_n(d box / delta), |d| <= reach_, n < 2 order_ - 1
+  std::vector<double> band_beta_, band_weight_;
+  Eigen::VectorXd alpha_, tau_forward_, tau_backward_;
+  // Scratch reused by every product: box moments (boxes x order), mu x and its transform.
   // Products on one operator are therefore not thread-safe (each runs in parallel inside).
-  mutable std::vector<double> prefix_;
+  mutable std::vector<double> box_moments_;
   mutable Eigen::VectorXd weighted_, transformed_;
 };
 
