@@ -28,6 +28,21 @@ Pipeline pipeline(const Shape& shape, double h) {
   s.mu = measures(s.contours, ii_normals(set, s.contours));
   return s;
 }
+// An annulus (outer contour and hole) and a separate small disc on a 240 x 240 pixel grid:
+// three contours of different lengths.
+Pipeline annulus_and_disc() {
+  const int size = 240;
+  std::vector<std::uint8_t> bitmap(static_cast<std::size_t>(size) * size, 0);
+  for (int y = 0; y < size; ++y)
+    for (int x = 0; x < size; ++x) {
+      const double r = std::hypot(x - 90.5, y - 120.5), d = std::hypot(x - 205.5, y - 120.5);
+      bitmap[static_cast<std::size_t>(y) * size + x] = (r < 80 && r > 35) || d < 25;
+    }
+  const DigitalSet set = DigitalSet::from_bitmap(1.0 / size, size, size, bitmap);
+  Pipeline s{track_contours(set), {}};
+  s.mu = measures(s.contours, ii_normals(set, s.contours));
+  return s;
+}
 }  // namespace
 
 TEST(MatrixFree, AgreesWithTheExplicitOperatorToEpsilonOnEveryReferenceShape) {
@@ -79,22 +94,13 @@ TEST(MatrixFree, WindowEndSeriesAgreesForEveryWindowWidth) {
       o.c_t = c_t;
       check(flower.contours, flower.mu, o, "accflower k " + std::to_string(k) + " c_t " + std::to_string(c_t));
     }
-  // Three contours (an annulus and a disc) on a pixel grid.
-  const int size = 300;
-  std::vector<std::uint8_t> bitmap(static_cast<std::size_t>(size) * size, 0);
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x) {
-      const double r = std::hypot(x - 110.5, y - 150.5), d = std::hypot(x - 250.5, y - 150.5);
-      bitmap[static_cast<std::size_t>(y) * size + x] = (r < 100 && r > 45) || d < 35;
-    }
-  const DigitalSet set = DigitalSet::from_bitmap(1.0 / size, size, size, bitmap);
-  const ContourSet contours = track_contours(set);
-  ASSERT_EQ(contours.contours.size(), 3u);
-  const Measures mu = measures(contours, ii_normals(set, contours));
+  // Three contours, with seams.
+  const Pipeline three = annulus_and_disc();
+  ASSERT_EQ(three.contours.contours.size(), 3u);
   for (auto placement : {Placement::Pointels, Placement::Linels}) {
     HeatLaplacianOptions o;
     o.placement = placement;
-    check(contours, mu, o, "annulus and disc");
+    check(three.contours, three.mu, o, "annulus and disc");
   }
 }
 
@@ -231,20 +237,11 @@ TEST(MatrixFree, EigenSolverReportsProgressAndRespectsTheMemoryLimit) {
 }
 
 TEST(MatrixFree, LobpcgOnSeveralContoursOfDifferentLengths) {
-  // An annulus (outer contour and hole: two zero eigenvalues, then each contour's own modes)
-  // and a separate small disc: three contours, three zero eigenvalues.
-  const int size = 240;
-  std::vector<std::uint8_t> bitmap(static_cast<std::size_t>(size) * size, 0);
-  for (int y = 0; y < size; ++y)
-    for (int x = 0; x < size; ++x) {
-      const double r = std::hypot(x - 90.5, y - 120.5), d = std::hypot(x - 205.5, y - 120.5);
-      bitmap[static_cast<std::size_t>(y) * size + x] = (r < 80 && r > 35) || d < 25;
-    }
-  const DigitalSet set = DigitalSet::from_bitmap(1.0 / size, size, size, bitmap);
-  const ContourSet contours = track_contours(set);
-  ASSERT_EQ(contours.contours.size(), 3u);
-  const Measures mu = measures(contours, ii_normals(set, contours));
-  expect_same_spectrum(contours, mu, 12, "annulus and disc");
+  // The annulus has two zero eigenvalues (outer contour and hole), then each contour's own
+  // modes; with the disc, three contours and three zero eigenvalues.
+  const Pipeline three = annulus_and_disc();
+  ASSERT_EQ(three.contours.contours.size(), 3u);
+  expect_same_spectrum(three.contours, three.mu, 12, "annulus and disc");
 }
 
 TEST(MatrixFree, ConjugateGradientHeatStepEqualsTheFactorizedOne) {
