@@ -3,7 +3,6 @@
 #include "digilap/error.hpp"
 #include "eigen_checks.hpp"
 #include "elements.hpp"
-#include "gaussian_kernel.hpp"
 #include "lobpcg.hpp"
 
 #include <Eigen/IterativeLinearSolvers>
