@@ -53,6 +53,17 @@ void hermite_functions(double u, int count, double* h) {
   if (count > 1) h[1] = 2 * u * h[0];
   for (int q = 1; q + 1 < count; ++q) h[q + 1] = 2 * u * h[q] - 2 * q * h[q - 1];
 }
+
+// power[q] = first x^q for q < count (count <= the buffer, >= 4 entries), as four interleaved
+// chains (x^q = x^(q-4) x^4): one chain of dependent products per source was the hot spot.
+inline void scaled_powers(double first, double x, int count, double* power) {
+  const double x2 = x * x, x4 = x2 * x2;
+  power[0] = first;
+  power[1] = first * x;
+  power[2] = first * x2;
+  power[3] = power[1] * x2;
+  for (int q = 4; q < count; ++q) power[q] = power[q - 4] * x4;
+}
 }  // namespace
 
 MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures,
@@ -261,14 +272,7 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
       const double centre = (k + 0.5) * box_;
       double acc[64] = {0}, power[64];
       for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
-        // f_j v^q as four interleaved chains (v^q = v^(q-4) v^4): one chain of p dependent
-        // products per source was the hot spot.
-        const double v = (s[j] - centre) * inv_delta, v2 = v * v, v4 = v2 * v2;
-        power[0] = fc[j];
-        power[1] = power[0] * v;
-        power[2] = power[0] * v2;
-        power[3] = power[1] * v2;
-        for (int q = 4; q < p; ++q) power[q] = power[q - 4] * v4;
+        scaled_powers(fc[j], (s[j] - centre) * inv_delta, p, power);  // f_j v^q
         for (int q = 0; q < p; ++q) acc[q] += power[q];
       }
       for (int q = 0; q < p; ++q) H[k * p + q] = acc[q] * inverse_factorial[q];
@@ -302,14 +306,8 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
           const Eigen::Index v = prefix ? r : count - 1 - r;
           const Eigen::Index u = band.lo + v;
           const Eigen::Index j = u < 0 ? u + n : (u >= n ? u - n : u);
-          // w (2 beta)^q as four interleaved chains, then 1 / q! from a table.
-          const double b = 2 * beta[v], b2 = b * b, b4 = b2 * b2;
-          double power[kMaxBandOrder + 4];
-          power[0] = fc[j] * weight[v];
-          power[1] = power[0] * b;
-          power[2] = power[0] * b2;
-          power[3] = power[1] * b2;
-          for (int q = 4; q < q_band; ++q) power[q] = power[q - 4] * b4;
+          double power[kMaxBandOrder + 4];  // w (2 beta)^q, then 1 / q! from a table
+          scaled_powers(fc[j] * weight[v], 2 * beta[v], q_band, power);
           double* row = rows.data() + static_cast<std::size_t>(v) * q_band;
           for (int q = 0; q < q_band; ++q) {
             acc[q] += power[q] * inverse_factorial[q];
