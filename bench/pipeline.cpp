@@ -68,7 +68,7 @@ void run(double h, int threads, double eigen_min_h, double free_eigen_min_h, dou
   int cg_iterations = 0;
   heat_step_cg(mf, x, mf.t(), 1e-10, &cg_iterations);
   const double t_heat = now() - t0;
-  // 10 eigenpairs through the matrix-free operator (Lanczos, default options), and their worst
+  // 10 eigenpairs through the matrix-free operator (default options: LOBPCG), and their worst
   // relative error against the exact (2 pi m / P)^2, m = 1..4 (eigenvalues 1..8, in pairs).
   double t_free_eigen = -1, free_eigen_error = -1;
   int free_eigen_products = 0;
