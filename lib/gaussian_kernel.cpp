@@ -5,18 +5,40 @@
 // inputs are finite, non-negative squared distances checked upstream).
 #include "gaussian_kernel.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace digilap {
+
+namespace {
+
+constexpr int kChunk = 64;  // a multiple of every vector width: no scalar prologue or epilogue
 
 // Two versions, chosen at load time by the CPU: AVX2 (4 exp per libmvec call) and baseline
 // x86-64 (SSE2, 2 per call). Each CPU always runs the same one, so results stay reproducible.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
 __attribute__((target_clones("avx2", "default")))
 #endif
+void weights_of_chunk(double* chunk, double inv_4t, double scale) {
+#pragma omp simd aligned(chunk : 64)
+  for (int k = 0; k < kChunk; ++k) chunk[k] = scale * std::exp(-chunk[k] * inv_4t);
+}
+
+}  // namespace
+
+// Every value goes through the same vector exp, whatever its position in the row: a scalar
+// tail (the remainder of a row after the full vectors) would use the scalar exp, whose last
+// bit differs, and A = M L would then not be symmetric bit for bit (the weight of a distance
+// would depend on where the pair sits in each of its two rows).
 void gaussian_weights(double* values, Eigen::Index count, double inv_4t, double scale) {
-#pragma omp simd
-  for (Eigen::Index k = 0; k < count; ++k) values[k] = scale * std::exp(-values[k] * inv_4t);
+  alignas(64) double chunk[kChunk];
+  for (Eigen::Index first = 0; first < count; first += kChunk) {
+    const int used = static_cast<int>(std::min<Eigen::Index>(kChunk, count - first));
+    std::copy(values + first, values + first + used, chunk);
+    std::fill(chunk + used, chunk + kChunk, 0.0);
+    weights_of_chunk(chunk, inv_4t, scale);
+    std::copy(chunk, chunk + used, values + first);
+  }
 }
 
 }  // namespace digilap

@@ -269,3 +269,28 @@ TEST(HeatLaplacian, BadParametersAreRefused) {
   }
   EXPECT_THROW(heat_laplacian(p.contours, Measures{}), Error);
 }
+
+// Issue 15, item 8: the weight of a distance does not depend on where the pair sits in its two
+// rows, so A = M L is symmetric bit for bit (what SciPy's (A != A.T).nnz == 0 checks), in
+// every mode. Before, 750 of 118,876 pairs differed in the last bit on the flower at h = 0.01
+// (the scalar exp of a row's tail against the vector exp of its body).
+TEST(HeatLaplacian, StiffnessIsSymmetricBitForBit) {
+  const Pipeline p = run(Flower(), 0.01);
+  for (auto distance : {DistanceMode::Geodesic, DistanceMode::Euclidean})
+    for (auto placement : {Placement::Pointels, Placement::Linels}) {
+      HeatLaplacianOptions o;
+      o.distance = distance;
+      o.placement = placement;
+      const ContourOperator op = heat_laplacian(p.contours, p.mu, o);
+      const SparseMatrix At = op.A.transpose();
+      ASSERT_EQ(At.nonZeros(), op.A.nonZeros());
+      Eigen::Index differing = 0;
+      for (Eigen::Index r = 0; r < op.A.rows(); ++r)
+        for (int k = op.A.outerIndexPtr()[r]; k < op.A.outerIndexPtr()[r + 1]; ++k) {
+          const int kt = At.outerIndexPtr()[r] + (k - op.A.outerIndexPtr()[r]);
+          if (At.innerIndexPtr()[kt] != op.A.innerIndexPtr()[k] || At.valuePtr()[kt] != op.A.valuePtr()[k]) ++differing;
+        }
+      EXPECT_EQ(differing, 0) << (distance == DistanceMode::Geodesic ? "geodesic " : "euclidean ")
+                              << (placement == Placement::Pointels ? "pointels" : "linels");
+    }
+}
