@@ -7,6 +7,13 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <limits>
+#include <string_view>
+#include <vector>
 
 namespace digilap {
 
@@ -16,11 +23,123 @@ void save_matrix_market(const SparseMatrix& matrix, const std::string& path) {
     throw Error("cannot write Matrix Market file '" + path + "' (check the directory exists and is writable)");
 }
 
+namespace {
+
+// A strict reader, written here because Eigen's loadMarket accepts anything: an empty or
+// garbage file gives a 0 x 0 matrix, a symmetric file keeps one triangle, out-of-range or
+// missing entries pass silently. This one reads the coordinate format, real or integer,
+// general or symmetric (the lower triangle, mirrored: what SciPy's mmwrite writes for a
+// symmetric matrix), and refuses everything else with the file and the line.
+class MarketReader {
+public:
+  MarketReader(std::string path, std::string text) : path_(std::move(path)), text_(std::move(text)) {}
+
+  SparseMatrix read() {
+    std::string_view line;
+    if (!next_line(line)) fail("the file is empty");
+    std::vector<std::string> banner = words(line);
+    for (auto& w : banner) std::transform(w.begin(), w.end(), w.begin(), [](unsigned char c) { return std::tolower(c); });
+    if (banner.size() != 5 || banner[0] != "%%matrixmarket" || banner[1] != "matrix")
+      fail("not a Matrix Market file (the first line must be '%%MatrixMarket matrix coordinate real general')");
+    if (banner[2] != "coordinate") fail("format '" + banner[2] + "' is not supported (only 'coordinate')");
+    if (banner[3] != "real" && banner[3] != "integer" && banner[3] != "double")
+      fail("field '" + banner[3] + "' is not supported (only 'real' or 'integer')");
+    if (banner[4] != "general" && banner[4] != "symmetric")
+      fail("symmetry '" + banner[4] + "' is not supported (only 'general' or 'symmetric')");
+    const bool symmetric = banner[4] == "symmetric";
+    do {
+      if (!next_line(line)) fail("no size line (rows columns entries)");
+    } while (is_comment_or_blank(line));
+    const std::vector<std::string> size = words(line);
+    if (size.size() != 3) fail("the size line must hold 3 integers (rows columns entries)");
+    const long long rows = integer(size[0], "rows"), cols = integer(size[1], "columns"), entries = integer(size[2], "entries");
+    if (rows > std::numeric_limits<int>::max() || cols > std::numeric_limits<int>::max())
+      fail("the matrix is too large for 32-bit indices");
+    if (symmetric && rows != cols) fail("a symmetric matrix must be square");
+    // Every entry takes at least 6 characters ("1 1 1\n"): a larger count cannot be in the file.
+    if (static_cast<double>(entries) > static_cast<double>(text_.size()) / 6.0 + 1)
+      fail("declares " + size[2] + " entries, more than a file of " + std::to_string(text_.size()) + " bytes can hold");
+    std::vector<Eigen::Triplet<double, int>> triplets;
+    triplets.reserve(static_cast<std::size_t>(symmetric ? 2 * entries : entries));
+    for (long long e = 0; e < entries; ++e) {
+      do {
+        if (!next_line(line))
+          fail("truncated: " + std::to_string(e) + " of the " + std::to_string(entries) + " declared entries");
+      } while (is_comment_or_blank(line));
+      const std::vector<std::string> w = words(line);
+      if (w.size() != 3) fail("an entry must hold 3 numbers (row column value)");
+      const long long i = integer(w[0], "row"), j = integer(w[1], "column");
+      if (i < 1 || i > rows || j < 1 || j > cols)
+        fail("entry (" + w[0] + ", " + w[1] + ") is outside the " + size[0] + " x " + size[1] + " matrix (indices start at 1)");
+      if (symmetric && i < j) fail("a symmetric file stores the lower triangle only (row >= column)");
+      const double v = real(w[2]);
+      triplets.emplace_back(static_cast<int>(i - 1), static_cast<int>(j - 1), v);
+      if (symmetric && i != j) triplets.emplace_back(static_cast<int>(j - 1), static_cast<int>(i - 1), v);
+    }
+    while (next_line(line))
+      if (!is_comment_or_blank(line)) fail("more entries than the " + std::to_string(entries) + " declared");
+    SparseMatrix m(static_cast<Eigen::Index>(rows), static_cast<Eigen::Index>(cols));
+    m.setFromTriplets(triplets.begin(), triplets.end());  // duplicates are summed, as SciPy does
+    return m;
+  }
+
+private:
+  [[noreturn]] void fail(const std::string& why) const {
+    throw Error("cannot read Matrix Market file '" + path_ + "'" + (line_ > 0 ? ", line " + std::to_string(line_) : "") +
+                ": " + why);
+  }
+  bool next_line(std::string_view& line) {
+    if (pos_ >= text_.size()) return false;
+    const std::size_t end = std::min(text_.find('\n', pos_), text_.size());
+    line = std::string_view(text_).substr(pos_, end - pos_);
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    pos_ = end + 1;
+    ++line_;
+    return true;
+  }
+  static bool is_comment_or_blank(std::string_view line) {
+    const std::size_t first = line.find_first_not_of(" \t");
+    return first == std::string_view::npos || line[first] == '%';
+  }
+  static std::vector<std::string> words(std::string_view line) {
+    std::vector<std::string> out;
+    std::size_t p = 0;
+    while ((p = line.find_first_not_of(" \t", p)) != std::string_view::npos) {
+      const std::size_t e = std::min(line.find_first_of(" \t", p), line.size());
+      out.emplace_back(line.substr(p, e - p));
+      p = e;
+    }
+    return out;
+  }
+  long long integer(const std::string& w, const char* what) const {
+    long long v = 0;
+    const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+    if (ec != std::errc() || end != w.data() + w.size() || v < 0)
+      fail(std::string("the ") + what + " '" + w + "' is not a non-negative integer");
+    return v;
+  }
+  double real(const std::string& w) const {
+    double v = 0;
+    const char* first = w.data() + (w.size() > 1 && w[0] == '+' ? 1 : 0);
+    const auto [end, ec] = std::from_chars(first, w.data() + w.size(), v);
+    if (ec != std::errc() || end != w.data() + w.size() || !std::isfinite(v))
+      fail("the value '" + w + "' is not a finite number");
+    return v;
+  }
+
+  std::string path_, text_;
+  std::size_t pos_ = 0;
+  long long line_ = 0;
+};
+
+}  // namespace
+
 SparseMatrix load_matrix_market(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw Error("cannot read Matrix Market file '" + path + "': no such file");
-  Eigen::SparseMatrix<double, Eigen::ColMajor, int> m;
-  if (!Eigen::loadMarket(m, path)) throw Error("cannot read Matrix Market file '" + path + "'");
-  return SparseMatrix(m);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot read Matrix Market file '" + path + "': no such file, or not readable");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error("cannot read Matrix Market file '" + path + "': read error");
+  return MarketReader(path, std::move(text)).read();
 }
 
 void save_elements_csv(const ContourOperator& op, const std::string& path) {

@@ -11,7 +11,10 @@ namespace digilap {
 /// MATLAB's mmread, Julia's MatrixMarket). Throws digilap::Error if the file cannot be written.
 void save_matrix_market(const SparseMatrix& matrix, const std::string& path);
 
-/// Reads a Matrix Market file written by save_matrix_market (general coordinate format).
+/// Reads a Matrix Market coordinate file, real or integer, general or symmetric (a symmetric
+/// file holds the lower triangle, mirrored here; duplicate entries are summed, as SciPy does).
+/// Throws digilap::Error naming the file and the line for anything else: an empty file, another
+/// format, field or symmetry, an index out of range, fewer or more entries than declared.
 SparseMatrix load_matrix_market(const std::string& path);
 
 /// Writes one line per row of the operator: row, contour, index, x, y, mu, s
