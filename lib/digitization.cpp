@@ -28,6 +28,27 @@ void normalize(std::vector<Run>& runs) {
   runs.resize(out);
 }
 
+std::string index_range() { return "[-" + std::to_string(kMaxPixelIndex) + ", " + std::to_string(kMaxPixelIndex) + "]"; }
+
+void check_index(const char* who, const char* what, std::int64_t v) {
+  if (v < -kMaxPixelIndex || v > kMaxPixelIndex)
+    throw Error(std::string(who) + ": " + what + " index " + std::to_string(v) + " is outside " + index_range() +
+                " (pixels need room for their neighbours); translate the set towards the origin");
+}
+
+// One offset per row between the first and the last row: refuse a span that would cost far
+// more than the runs themselves, before allocating it.
+void check_row_span(const char* who, std::int64_t rows, std::size_t runs) {
+  constexpr std::int64_t kFreeSpan = std::int64_t(1) << 24;
+  if (rows > kFreeSpan && rows > 64 * static_cast<std::int64_t>(runs)) {
+    std::ostringstream msg;
+    msg << who << ": the pixels span " << rows << " rows but hold only " << runs
+        << " runs: a set this sparse would take memory by its span (" << 8.0 * static_cast<double>(rows) / 1e9
+        << " GB); split it into separate sets";
+    throw Error(msg.str());
+  }
+}
+
 // One crossing of the curve with the line y = j h.
 struct Crossing {
   std::int32_t row;
@@ -57,11 +78,25 @@ std::size_t DigitalSet::memory_bytes() const {
 
 DigitalSet DigitalSet::from_rows(double h, std::int32_t row_begin, std::vector<std::vector<Run>> rows) {
   DigitalSet set(h);
-  for (auto& r : rows) normalize(r);
+  std::size_t run_total = 0;
+  for (auto& r : rows) {
+    normalize(r);
+    run_total += r.size();
+  }
   // Drop empty rows at both ends so that row_begin()/row_end() are tight.
   std::size_t first = 0, last = rows.size();
   while (first < last && rows[first].empty()) ++first;
   while (last > first && rows[last - 1].empty()) --last;
+  if (first < last) {
+    check_index("from_rows", "row", std::int64_t(row_begin) + static_cast<std::int64_t>(first));
+    check_index("from_rows", "row", std::int64_t(row_begin) + static_cast<std::int64_t>(last) - 1);
+    for (std::size_t r = first; r < last; ++r)
+      if (!rows[r].empty()) {
+        check_index("from_rows", "column", rows[r].front().begin);
+        check_index("from_rows", "column", std::int64_t(rows[r].back().end) - 1);
+      }
+    check_row_span("from_rows", static_cast<std::int64_t>(last - first), run_total);
+  }
   set.row_begin_ = row_begin + static_cast<std::int32_t>(first);
   set.row_offset_.assign(1, 0);
   for (std::size_t r = first; r < last; ++r) {
@@ -76,6 +111,12 @@ DigitalSet DigitalSet::from_bitmap(double h, int width, int height, const std::v
                                    std::int32_t col_offset, std::int32_t row_offset) {
   if (width < 0 || height < 0 || bitmap.size() != static_cast<std::size_t>(width) * height)
     throw Error("from_bitmap: the bitmap must hold width * height values");
+  if (width > 0 && height > 0) {
+    check_index("from_bitmap", "column", col_offset);
+    check_index("from_bitmap", "column", std::int64_t(col_offset) + width - 1);
+    check_index("from_bitmap", "row", row_offset);
+    check_index("from_bitmap", "row", std::int64_t(row_offset) + height - 1);
+  }
   std::vector<std::vector<Run>> rows(height);
   for (int r = 0; r < height; ++r) {
     const std::uint8_t* row = bitmap.data() + static_cast<std::size_t>(r) * width;
@@ -93,8 +134,13 @@ DigitalSet DigitalSet::from_bitmap(double h, int width, int height, const std::v
 DigitalSet DigitalSet::from_pixels(double h, const std::vector<Eigen::Vector2i>& pixels) {
   if (pixels.empty()) return DigitalSet(h);
   std::int32_t jmin = pixels[0].y(), jmax = pixels[0].y();
-  for (const auto& p : pixels) jmin = std::min(jmin, p.y()), jmax = std::max(jmax, p.y());
-  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(jmax) - jmin + 1);
+  for (const auto& p : pixels) {
+    check_index("from_pixels", "column", p.x());
+    check_index("from_pixels", "row", p.y());
+    jmin = std::min(jmin, p.y()), jmax = std::max(jmax, p.y());
+  }
+  check_row_span("from_pixels", std::int64_t(jmax) - jmin + 1, pixels.size());
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(std::int64_t(jmax) - jmin + 1));
   for (const auto& p : pixels) rows[p.y() - jmin].push_back({p.x(), p.x() + 1});
   return from_rows(h, jmin, std::move(rows));
 }

@@ -1,10 +1,13 @@
 // Gauss digitization: exact pixel sets, without a dense bitmap.
+#include "digilap/contour.hpp"
 #include "digilap/digitization.hpp"
 #include "digilap/error.hpp"
 
 #include <gtest/gtest.h>
 
+#include <climits>
 #include <cmath>
+#include <functional>
 
 using namespace digilap;
 
@@ -93,4 +96,41 @@ TEST(Digitization, BadStepIsRefused) {
   EXPECT_THROW(digitize(c, INFINITY), Error);
   EXPECT_THROW(digitize(c, 1e-12), Error);  // pixel indices beyond 32 bits
   EXPECT_EQ(digitize(c, 5.0).pixel_count(), 1);  // only the centre pixel (0, 0)
+}
+
+namespace {
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// Issue 15, item 3: indices at the edges of the int32 range gave a segfault, lost pixels, a
+// "hole" of area -8589934590 and bad_alloc. They are refused with the range; the range's own
+// edges still track into one counter-clockwise contour of area 1.
+TEST(Digitization, PixelIndicesWithoutRoomForNeighboursAreRefused) {
+  using P = std::vector<Eigen::Vector2i>;
+  for (const P& pixels : {P{{0, INT_MIN}}, P{{INT_MAX, 0}}, P{{0, INT_MAX}}, P{{INT_MIN, 0}}, P{{0, 0}, {kMaxPixelIndex + 1, 0}}}) {
+    const std::string message = error_of([&] { DigitalSet::from_pixels(1.0, pixels); });
+    EXPECT_NE(message.find("is outside [-1073741824, 1073741824]"), std::string::npos) << message;
+  }
+  const std::vector<std::uint8_t> bits(4, 1);
+  EXPECT_NE(error_of([&] { DigitalSet::from_bitmap(1.0, 2, 2, bits, INT_MAX - 1, 0); }).find("column index"), std::string::npos);
+  EXPECT_NE(error_of([&] { DigitalSet::from_bitmap(1.0, 2, 2, bits, 0, INT_MIN); }).find("row index"), std::string::npos);
+  EXPECT_NE(error_of([&] { DigitalSet::from_rows(1.0, INT_MAX - 1, {{}, {{0, 1}}}); }).find("row index"), std::string::npos);
+  EXPECT_NE(error_of([&] { DigitalSet::from_rows(1.0, 0, {{{INT_MIN, 0}}}); }).find("column index"), std::string::npos);
+  // Two pixels 2^31 rows apart: refused with the span before anything is allocated.
+  const std::string span = error_of([] { DigitalSet::from_pixels(1.0, {{0, -kMaxPixelIndex}, {0, kMaxPixelIndex}}); });
+  EXPECT_NE(span.find("span 2147483649 rows but hold only 2 runs"), std::string::npos) << span;
+  for (const Eigen::Vector2i& corner : {Eigen::Vector2i(kMaxPixelIndex, kMaxPixelIndex), Eigen::Vector2i(-kMaxPixelIndex, -kMaxPixelIndex),
+                                        Eigen::Vector2i(kMaxPixelIndex, -kMaxPixelIndex)}) {
+    const ContourSet cs = track_contours(DigitalSet::from_pixels(1.0, {corner}));
+    ASSERT_EQ(cs.contours.size(), 1u);
+    EXPECT_EQ(cs.contours[0].size(), 4u);
+    EXPECT_EQ(cs.contours[0].twice_signed_area(), 2);
+  }
 }

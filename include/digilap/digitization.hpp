@@ -13,6 +13,10 @@
 
 namespace digilap {
 
+/// Pixel indices of a DigitalSet lie in [-kMaxPixelIndex, kMaxPixelIndex]: the contours need
+/// room for the neighbours of every pixel, and differences of indices must fit in 32 bits.
+constexpr std::int32_t kMaxPixelIndex = 1 << 30;
+
 /// Pixels begin, begin + 1, ..., end - 1 of one row (half-open).
 struct Run {
   std::int32_t begin;
@@ -47,6 +51,10 @@ public:
   /// Bytes held by the run storage (what "memory proportional to the boundary" means).
   std::size_t memory_bytes() const;
 
+  /// Builders throw digilap::Error for a pixel index outside [-kMaxPixelIndex, kMaxPixelIndex],
+  /// and for a set whose rows span more than 2^24 rows while holding 64 times fewer runs (the
+  /// set keeps one offset per row between its first and last: such a sparse set would take
+  /// memory by its span, not by its boundary).
   /// Build from rows given as possibly unsorted, overlapping runs (normalized here).
   static DigitalSet from_rows(double h, std::int32_t row_begin, std::vector<std::vector<Run>> rows);
   /// Build from a row-major bitmap of width x height (nonzero = in the set); bitmap row r is
