@@ -49,6 +49,19 @@ void check_row_span(const char* who, std::int64_t rows, std::size_t runs) {
   }
 }
 
+// Makes pixel i of a row of runs (sorted, perhaps touching) in or out of the set.
+void set_pixel(std::vector<Run>& row, std::int32_t i, bool inside) {
+  const auto it = std::find_if(row.begin(), row.end(), [i](const Run& r) { return r.begin <= i && i < r.end; });
+  if (inside == (it != row.end())) return;
+  if (inside) {
+    row.insert(std::upper_bound(row.begin(), row.end(), i, [](std::int32_t v, const Run& r) { return v < r.begin; }), Run{i, i + 1});
+    return;
+  }
+  const Run after{i + 1, it->end};
+  it->end = i;
+  row.insert(it + 1, after);  // empty pieces are dropped when the rows are normalized
+}
+
 // One crossing of the curve with the line y = j h.
 struct Crossing {
   std::int32_t row;
@@ -244,6 +257,18 @@ DigitalSet digitize(const Shape& shape, double h) {
         rows[j - row0].push_back({static_cast<std::int32_t>(b), static_cast<std::int32_t>(last + 1)});
     }
     c = e;
+  }
+  // 4. Where the curve touches a row without crossing it (y' = 0 on the line y = j h), the
+  // crossings say nothing: the pixels there lie inside a run, or just outside one, and are
+  // settled by the exact inside test (a run is split, or a pixel added).
+  for (std::size_t b = 1; b + 1 < breaks.size(); ++b) {
+    const Eigen::Vector2d p = at(breaks[b]);
+    for (auto j = static_cast<std::int64_t>(std::floor(p.y() / h)); j <= static_cast<std::int64_t>(std::ceil(p.y() / h)); ++j) {
+      if (j < row0 || j - row0 >= static_cast<std::int64_t>(rows.size())) continue;
+      std::vector<Run>& row = rows[static_cast<std::size_t>(j - row0)];
+      const auto i0 = static_cast<std::int64_t>(std::floor(p.x() / h)) - 1, i1 = static_cast<std::int64_t>(std::ceil(p.x() / h)) + 1;
+      for (std::int64_t i = i0; i <= i1; ++i) set_pixel(row, static_cast<std::int32_t>(i), in(i, j));
+    }
   }
   return DigitalSet::from_rows(h, row0, std::move(rows));
 }

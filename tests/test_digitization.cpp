@@ -134,3 +134,32 @@ TEST(Digitization, PixelIndicesWithoutRoomForNeighboursAreRefused) {
     EXPECT_EQ(cs.contours[0].twice_signed_area(), 2);
   }
 }
+
+// Issue 15, item 6: Flower(2, 0.5, k) for even k touches the row y = -1.5 at x = 0 without
+// crossing it (the pixel (0, -1.5/h) lies on the curve, so it is outside): it used to be kept,
+// inside a run. Every pixel of the box agrees with Shape::inside.
+TEST(Digitization, CurveTouchingARowWithoutCrossingIt) {
+  for (int k : {2, 6, 10})
+    for (double h : {0.1, 0.05, 0.01}) {
+      const Flower flower(2, 0.5, k);
+      const DigitalSet set = digitize(flower, h);
+      const long long touch = std::llround(-1.5 / h);
+      EXPECT_FALSE(set.contains(0, static_cast<int>(touch))) << "k = " << k << ", h = " << h;
+      const auto box = flower.bounding_box();
+      long long mismatches = 0;
+      for (long long j = std::floor(box.min().y() / h) - 1; j <= std::ceil(box.max().y() / h) + 1; ++j)
+        for (long long i = std::floor(box.min().x() / h) - 1; i <= std::ceil(box.max().x() / h) + 1; ++i)
+          mismatches += flower.inside({i * h, j * h}) != set.contains(static_cast<int>(i), static_cast<int>(j));
+      EXPECT_EQ(mismatches, 0) << "k = " << k << ", h = " << h;
+    }
+}
+
+// ... and a curve whose oscillations its samples cannot resolve (Flower(2, 0.5, 20000) gave 416
+// wrong pixels at h = 0.01) is refused when it is built, with the reason.
+TEST(Digitization, CurvesTooFineForTheSamplingAreRefused) {
+  for (int k : {200, 20000}) {
+    const std::string message = error_of([k] { Flower(2, 0.5, k); });
+    EXPECT_NE(message.find("the tangent turns by"), std::string::npos) << message;
+  }
+  EXPECT_NO_THROW(Flower(2, 0.5, 50));
+}
