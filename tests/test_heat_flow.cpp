@@ -72,3 +72,42 @@ TEST(HeatFlow, ConservesTheTotalHeatAndRefusesBadSteps) {
   EXPECT_THROW(HeatFlow(s.op, -1.0), Error);
   EXPECT_THROW(HeatFlow(s.op, std::nan("")), Error);
 }
+
+// Issue 15, item 5: one huge step used to create heat (0.76 -> 0.83 at dt = 1e13) and make a
+// bump negative (total -0.28 at dt = 1e15). Now each contour keeps its heat to rounding for
+// every dt, and implicit Euler, monotone, keeps a non-negative bump non-negative: after a step
+// that long it is the contour's mean. Two contours (a disc inside an annulus) keep theirs apart.
+TEST(HeatFlow, HugeStepsConserveTheHeatOfEachContour) {
+  std::vector<std::uint8_t> bits(40 * 40, 0);
+  for (int r = 0; r < 40; ++r)
+    for (int c = 0; c < 40; ++c) {
+      const double d = std::hypot(r - 19.5, c - 19.5);
+      bits[r * 40 + c] = (d < 18 && d > 11) || d < 6;
+    }
+  const DigitalSet set = DigitalSet::from_bitmap(0.05, 40, 40, bits);
+  const ContourSet cs = track_contours(set);
+  ASSERT_EQ(cs.contours.size(), 3u);
+  IINormalOptions normal_options;
+  normal_options.k_R = 0.3;
+  const ContourOperator op = heat_laplacian(cs, measures(cs, ii_normals(set, cs, normal_options)));
+  Eigen::VectorXd bump = Eigen::VectorXd::Zero(op.rows());
+  for (Eigen::Index r = 0; r < op.rows(); ++r) bump[r] = std::max(0.0, 1.0 - std::abs(op.positions(r, 0) - 0.9) / 0.4);
+  auto heat_of = [&](const Eigen::VectorXd& u, std::size_t c) {
+    const Eigen::Index a = op.row_offset[c], n = op.row_offset[c + 1] - a;
+    return op.mass.segment(a, n).dot(u.segment(a, n));
+  };
+  for (double dt : {1e-3, 1e6, 1e13, 1e15, 1e30})
+    for (auto scheme : {TimeScheme::ImplicitEuler, TimeScheme::CrankNicolson}) {
+      const Eigen::VectorXd u = HeatFlow(op, dt, scheme).step(bump);
+      for (std::size_t c = 0; c < cs.contours.size(); ++c)
+        // Sums of a few hundred terms of size <= 1: rounding near 1e-15 relative.
+        EXPECT_NEAR(heat_of(u, c), heat_of(bump, c), 1e-12 * std::max(1.0, heat_of(bump, c))) << "dt = " << dt << ", contour " << c;
+      if (scheme == TimeScheme::ImplicitEuler) EXPECT_GE(u.minCoeff(), -1e-12) << "dt = " << dt;
+      if (scheme == TimeScheme::ImplicitEuler && dt >= 1e13)
+        for (std::size_t c = 0; c < cs.contours.size(); ++c) {
+          const Eigen::Index a = op.row_offset[c], n = op.row_offset[c + 1] - a;
+          const double mean = heat_of(bump, c) / op.mass.segment(a, n).sum();
+          EXPECT_LE((u.segment(a, n).array() - mean).abs().maxCoeff(), 1e-9) << "dt = " << dt << ", contour " << c;
+        }
+    }
+}

@@ -4,6 +4,8 @@
 // theta = 1 (implicit Euler, first order, monotone) or 1/2 (Crank-Nicolson, second order).
 // The matrix M - theta dt A is symmetric positive definite: it is factorized once (sparse
 // LDL^T) in the constructor and reused by every step, as geometry-central's solvers do.
+// The heat sum_i mu_i u_i of each connected component (each contour, in geodesic mode) is
+// conserved to rounding for every dt: the solve alone loses it when dt A dwarfs M.
 //
 // Elements of measure mu = 0 (possible on noisy contours, SPEC §4) have no equation in the
 // pair (A, M): their rows and columns of A vanish. Built from a ContourOperator, the flow
@@ -39,12 +41,16 @@ public:
 private:
   using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
   void factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme);
+  void conserve_heat(const Eigen::VectorXd& u, Eigen::VectorXd& next) const;
   ColMatrix rhs_;  // M + (1 - theta) dt A
   Eigen::SimplicialLDLT<ColMatrix> solver_;
   double dt_;
   double theta_ = 0.5;
   std::vector<Eigen::Index> massless_;  // rows of zero measure, stepped with their row of L
   SparseMatrix L_massless_;             // those rows of L
+  Eigen::VectorXd mass_;
+  std::vector<int> component_of_row_;   // connected components of A: heat is conserved on each
+  std::vector<double> component_mass_;
 };
 
 /// exp(tau L) u0 through a set of eigenpairs (M-orthonormal): sum_k exp(-lambda_k tau)
