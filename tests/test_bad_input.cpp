@@ -75,6 +75,8 @@ const std::vector<Case> kCases = {
     {"unknown_shape", "operator", "--shape square", "", false, "unknown shape 'square'"},
     {"unknown_shape_convergence", "convergence", "--shape square", "", false, "unknown shape 'square'"},
     {"unknown_function", "convergence", "--function sin", "", false, "unknown test function 'sin'"},
+    {"convergence_one_step", "convergence", "--h 0.1 --out {dir}/conv", "", true, "one step: no slope"},
+    {"heat_huge_step_conserves", "heat", "--shape circle --h 0.1 --tau 1e15 --steps 1 --snapshots 2 --scheme euler --initial bump --out {dir}/heat", "", true, "| 1e+15 | 0.00000000 | 0.00000000 | inf | 0.76193311"},
     {"unknown_operator", "convergence", "--operators cotan", "", false, "unknown operator 'cotan'"},
     {"bad_distance", "operator", "--distance manhattan", "", false, "manhattan"},
     {"memory_limit", "operator", "--memory-limit 1000", "", false, "above the memory limit"},

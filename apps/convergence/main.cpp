@@ -64,10 +64,17 @@ int main(int argc, char** argv) {
                   row.max_error, row.mean_error, 100 * row.relative_max_error,
                   row.length_estimate / row.length_exact - 1, row.seconds_front_end, row.seconds_assembly,
                   row.seconds_evaluation);
+    // A slope needs two grid steps with a non-zero error: say so instead of printing nan.
+    auto slope_text = [](double slope) {
+      char text[32];
+      if (std::isnan(slope)) return std::string("one step: no slope");
+      std::snprintf(text, sizeof text, "%.2f", slope);
+      return std::string(text);
+    };
     std::printf("\n| operator | rel max err at h = %g | slope (all h) | slope (finest 3) |\n|---|---|---|---|\n", o.steps.back());
     for (const auto& name : operators)
-      std::printf("| %s | %.3f%% | %.2f | %.2f |\n", name.c_str(), 100 * r.of(name).back().relative_max_error,
-                  r.slope(name), r.slope(name, 3));
+      std::printf("| %s | %.3f%% | %s | %s |\n", name.c_str(), 100 * r.of(name).back().relative_max_error,
+                  slope_text(r.slope(name)).c_str(), slope_text(r.slope(name, 3)).c_str());
 
     std::filesystem::create_directories(out_dir);
     const std::string csv_path = out_dir + "/convergence.csv", svg_path = out_dir + "/convergence.svg";
@@ -90,7 +97,7 @@ int main(int argc, char** argv) {
     for (const auto& name : operators) {
       app::PlotSeries s;
       char label[96];
-      std::snprintf(label, sizeof label, "%s (%.2f)", name.c_str(), r.slope(name));
+      std::snprintf(label, sizeof label, "%s (%s)", name.c_str(), slope_text(r.slope(name)).c_str());
       s.label = label;
       for (const auto& row : r.of(name)) s.x.push_back(row.h), s.y.push_back(row.relative_max_error);
       if (name == operators.front() && !s.y.empty()) anchor = s.y.back();
