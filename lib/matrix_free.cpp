@@ -4,6 +4,7 @@
 #include "eigen_checks.hpp"
 #include "elements.hpp"
 #include "lobpcg.hpp"
+#include "spectrum_parts.hpp"
 
 #include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SparseCholesky>
@@ -12,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <sstream>
 #include <tuple>
 
@@ -231,10 +233,9 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
   }
 }
 
-void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* f,
-                                      double* out) const {
+void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc,
+                                      double* oc) const {
   const double* s = s_.data() + ct.offset;
-  const double* fc = f + ct.offset;
   const Eigen::Index n = ct.n;
   const double inv_4t = 1.0 / (4 * t_);
   for (Eigen::Index i = i0; i <= i1; ++i) {
@@ -244,25 +245,27 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
       const double d = detail::cyclic_distance(s[i], s[j], ct.P);
       sum += std::exp(-d * d * inv_4t) * fc[j];
     }
-    out[ct.offset + i] = sum;
+    oc[i] = sum;
   }
 }
 
 void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
+  for (const Contour& ct : contours_) contour_transform(ct, f + ct.offset, out + ct.offset);
+}
+
+void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc) const {
   const int p = order_, q_band = band_order_, terms = 2 * p - 1;
   double inverse_factorial[64];
   inverse_factorial[0] = 1;
   for (int q = 1; q < 64; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
   const double inv_delta = 1.0 / delta_;
-  for (const Contour& ct : contours_) {
+  {
     if (ct.direct) {
 #pragma omp parallel for schedule(dynamic, 64)
-      for (Eigen::Index i = 0; i < ct.n; ++i) direct_sums(ct, i, i, f, out);
-      continue;
+      for (Eigen::Index i = 0; i < ct.n; ++i) direct_sums(ct, i, i, fc, oc);
+      return;
     }
     const double* s = s_.data() + ct.offset;
-    const double* fc = f + ct.offset;
-    double* oc = out + ct.offset;
     const Eigen::Index n = ct.n;
     // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta.
     box_moments_.resize(std::max(box_moments_.size(), static_cast<std::size_t>(ct.boxes) * p));
@@ -321,7 +324,7 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
         if (i0 > i1) continue;
         const TargetBox& tb = ct.plan[kt];
         if (tb.direct) {
-          direct_sums(ct, i0, i1, f, out);
+          direct_sums(ct, i0, i1, fc, oc);
           continue;
         }
         const double centre = (kt + 0.5) * box_;
@@ -391,6 +394,20 @@ void MatrixFreeLaplacian::apply(const double* x, double* y) const {
   for (Eigen::Index i = 0; i < n; ++i) y[i] = scale_ * (g[i] - x[i] * transform_of_mass_[i]);
 }
 
+void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
+  if (c >= contours_.size()) throw Error("MatrixFreeLaplacian::apply_contour: no contour " + std::to_string(c));
+  const Contour& ct = contours_[c];
+  weighted_.resize(ct.n);
+  transformed_.resize(ct.n);
+  double* f = weighted_.data();
+  double* g = transformed_.data();
+  const double* mass = mass_.data() + ct.offset;
+  const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
+  for (Eigen::Index i = 0; i < ct.n; ++i) f[i] = mass[i] * x[i];
+  contour_transform(ct, f, g);
+  for (Eigen::Index i = 0; i < ct.n; ++i) y[i] = scale_ * (g[i] - x[i] * transform_of_mass[i]);
+}
+
 Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
   if (x.size() != rows()) throw Error("MatrixFreeLaplacian: the vector has the wrong size");
   Eigen::VectorXd y(rows());
@@ -412,18 +429,21 @@ std::vector<double> MatrixFreeLaplacian::contour_lengths() const {
 
 namespace {
 
-// C = M^(1/2) (-L) M^(-1/2): symmetric (A = M L is), same eigenvalues as -A x = lambda M x,
-// eigenvectors y = M^(1/2) x.
+// C = M^(1/2) (-L_c) M^(-1/2) on the block of one contour c: symmetric (A = M L is), same
+// eigenvalues as -A x = lambda M x there, eigenvectors y = M^(1/2) x.
 class SymmetricForm {
 public:
-  explicit SymmetricForm(const MatrixFreeLaplacian& op) : op_(op), sqrt_mass_(op.mass().cwiseSqrt()), z_(op.rows()), w_(op.rows()) {}
+  SymmetricForm(const MatrixFreeLaplacian& op, std::size_t contour)
+      : op_(op), contour_(contour), first_(op.row_offset()[contour]), n_(op.row_offset()[contour + 1] - first_),
+        sqrt_mass_(op.mass().segment(first_, n_).cwiseSqrt()), z_(n_), w_(n_) {}
+  Eigen::Index rows() const { return n_; }
   const Eigen::VectorXd& sqrt_mass() const { return sqrt_mass_; }
   // y = (c I - C) x
   void shifted(double c, const double* x_in, double* y_out) const {
-    Eigen::Map<const Eigen::VectorXd> x(x_in, op_.rows());
-    Eigen::Map<Eigen::VectorXd> y(y_out, op_.rows());
+    Eigen::Map<const Eigen::VectorXd> x(x_in, n_);
+    Eigen::Map<Eigen::VectorXd> y(y_out, n_);
     z_ = x.cwiseQuotient(sqrt_mass_);
-    op_.apply(z_.data(), w_.data());
+    op_.apply_contour(contour_, z_.data(), w_.data());
     y = c * x + sqrt_mass_.cwiseProduct(w_);
   }
   // Y = C X = -(0 I - C) X, column by column.
@@ -437,6 +457,8 @@ public:
 
 private:
   const MatrixFreeLaplacian& op_;
+  std::size_t contour_;
+  Eigen::Index first_, n_;
   Eigen::VectorXd sqrt_mass_;
   mutable Eigen::VectorXd z_, w_;
 };
@@ -445,48 +467,44 @@ private:
 class ShiftedSymmetricOp {
 public:
   using Scalar = double;
-  ShiftedSymmetricOp(const SymmetricForm& form, Eigen::Index n, double c) : form_(form), n_(n), c_(c) {}
-  Eigen::Index rows() const { return n_; }
-  Eigen::Index cols() const { return n_; }
+  ShiftedSymmetricOp(const SymmetricForm& form, double c) : form_(form), c_(c) {}
+  Eigen::Index rows() const { return form_.rows(); }
+  Eigen::Index cols() const { return form_.rows(); }
   void perform_op(const double* x, double* y) const { form_.shifted(c_, x, y); }
 
 private:
   const SymmetricForm& form_;
-  Eigen::Index n_;
   double c_;
 };
 
-// Preconditioner for C from the 1D Laplacian along the arclength. The heat operator acts on a
-// wave of frequency w as (1 - exp(-w^2 t)) / t; D2 = M^-1 K (K: the cyclic "1 / ds" stiffness
-// of consecutive rows) acts as w^2, so g(D2) = D2 (I + t D2)^-1 follows the heat operator
-// within a factor 1.3 at every frequency. T = (g(D2) + sigma)^-1 M^-1 (symmetric positive
-// definite) = (I + t D2) S^-1 with S = (1 + sigma t) K + sigma M: one sparse tridiagonal
-// (cyclic) factorization, O(N). In the symmetric form: T_y = M^(1/2) T M^(1/2).
+// Preconditioner for C from the 1D Laplacian along the arclength of the contour. The heat
+// operator acts on a wave of frequency w as (1 - exp(-w^2 t)) / t; D2 = M^-1 K (K: the cyclic
+// "1 / ds" stiffness of consecutive rows) acts as w^2, so g(D2) = D2 (I + t D2)^-1 follows the
+// heat operator within a factor 1.3 at every frequency. T = (g(D2) + sigma)^-1 M^-1 (symmetric
+// positive definite) = (I + t D2) S^-1 with S = (1 + sigma t) K + sigma M: one sparse
+// tridiagonal (cyclic) factorization, O(N). In the symmetric form: T_y = M^(1/2) T M^(1/2).
 class ArclengthPreconditioner {
 public:
-  explicit ArclengthPreconditioner(const MatrixFreeLaplacian& op) : sqrt_mass_(op.mass().cwiseSqrt()), t_(op.t()) {
-    const Eigen::Index n = op.rows();
-    const std::vector<double> lengths = op.contour_lengths();
-    const double longest = *std::max_element(lengths.begin(), lengths.end());
-    const double sigma = std::pow(2 * kPi / longest, 2);  // the first non-zero eigenvalue's scale
-    std::vector<Eigen::Triplet<double>> k_entries, s_entries;
-    const Eigen::VectorXd& s = op.arclength();
-    for (std::size_t c = 0; c < lengths.size(); ++c) {
-      const Eigen::Index first = op.row_offset()[c], count = op.row_offset()[c + 1] - first;
-      const double min_ds = 1e-6 * lengths[c] / count;  // coincident rows: a large, finite weight
-      for (Eigen::Index a = 0; a < count; ++a) {
-        const Eigen::Index i = first + a, j = first + (a + 1) % count;
-        if (i == j) continue;
-        double ds = s[j] - s[i];
-        if (a + 1 == count) ds += lengths[c];
-        const double w = 1.0 / std::max(ds, min_ds);
-        for (auto [r, col, v] : {std::tuple{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}}) k_entries.emplace_back(r, col, v);
-      }
+  ArclengthPreconditioner(const MatrixFreeLaplacian& op, std::size_t contour) : t_(op.t()) {
+    const Eigen::Index first = op.row_offset()[contour], n = op.row_offset()[contour + 1] - first;
+    const double length = op.contour_lengths()[contour];
+    const Eigen::VectorXd mass = op.mass().segment(first, n);
+    sqrt_mass_ = mass.cwiseSqrt();
+    const double sigma = std::pow(2 * kPi / length, 2);  // the first non-zero eigenvalue's scale
+    const Eigen::VectorXd s = op.arclength().segment(first, n);
+    const double min_ds = 1e-6 * length / n;  // coincident rows: a large, finite weight
+    std::vector<Eigen::Triplet<double>> k_entries;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Index j = (i + 1) % n;
+      if (i == j) continue;
+      const double ds = s[j] - s[i] + (i + 1 == n ? length : 0.0);
+      const double w = 1.0 / std::max(ds, min_ds);
+      for (auto [r, col, v] : {std::tuple{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}}) k_entries.emplace_back(r, col, v);
     }
     stiffness_.resize(n, n);
     stiffness_.setFromTriplets(k_entries.begin(), k_entries.end());
     Eigen::SparseMatrix<double> system = (1 + sigma * t_) * stiffness_;
-    for (Eigen::Index i = 0; i < n; ++i) system.coeffRef(i, i) += sigma * op.mass()[i];
+    for (Eigen::Index i = 0; i < n; ++i) system.coeffRef(i, i) += sigma * mass[i];
     solver_.compute(system);
     if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs: the preconditioner could not be factorized");
   }
@@ -505,14 +523,29 @@ private:
   mutable Eigen::MatrixXd scaled_, z_;
 };
 
-}  // namespace
-
-Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
-  const Eigen::Index n = op.rows();
-  detail::check_eigen_request(op.mass(), o.count);
+// The `count` smallest eigenpairs of contour c's block: dense when small, else preconditioned
+// LOBPCG, else Lanczos. The block is connected (checked), so its kernel is simple.
+Spectrum contour_spectrum(const MatrixFreeLaplacian& op, std::size_t contour, int count, const SpectrumOptions& o) {
+  const SymmetricForm form(op, contour);
+  const Eigen::Index n = form.rows();
+  if (n <= detail::kDenseRows || 2 * count + 1 > n) {
+    if (n > 3000)
+      throw Error("smallest_eigenpairs: " + std::to_string(count) + " eigenpairs of a contour of " + std::to_string(n) +
+                  " rows is more than half of them; ask for fewer");
+    // The block of A column by column, from products with unit vectors (n products of O(n)).
+    const Eigen::Index first = op.row_offset()[contour];
+    Eigen::MatrixXd L(n, n);
+    Eigen::VectorXd unit = Eigen::VectorXd::Zero(n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      unit[j] = 1;
+      op.apply_contour(contour, unit.data(), L.col(j).data());
+      unit[j] = 0;
+    }
+    const Eigen::VectorXd mass = op.mass().segment(first, n);
+    return detail::dense_spectrum(mass.asDiagonal() * L, mass, count);
+  }
   // Gershgorin on L: every eigenvalue of -L lies in [0, 2 max|L_ii|].
-  const double c = 2.0 * op.diagonal().cwiseAbs().maxCoeff();
-  const SymmetricForm form(op);
+  const double c = 2.0 * op.diagonal().segment(op.row_offset()[contour], n).cwiseAbs().maxCoeff();
   Spectrum s;
   // Preconditioned LOBPCG first: about 10 iterations whatever h (165 products for 10
   // eigenpairs of the flower from h = 1e-2 to 1e-4), where Lanczos needs thousands as the
@@ -521,10 +554,10 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   // Lanczos takes over. Residual tolerance: `tolerance` times the spectrum's bound c, the
   // same scale as Lanczos's Ritz-value test on c I - C.
   constexpr int kLobpcgIterations = 300;
-  const Eigen::Index block = std::min<Eigen::Index>(n, o.count + std::max(4, o.count / 2));
+  const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
   const double lobpcg_need = detail::lobpcg_bytes(n, block);
   if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {
-    const ArclengthPreconditioner preconditioner(op);
+    const ArclengthPreconditioner preconditioner(op, contour);
     Eigen::MatrixXd start(n, block);
     std::uint64_t state = 0x9e3779b97f4a7c15ULL;  // a fixed start: reproducible runs
     for (Eigen::Index k = 0; k < start.size(); ++k) {
@@ -533,37 +566,83 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
     }
     const detail::LobpcgResult r = detail::lobpcg(
         [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { form.apply_block(x, y); },
-        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); }, std::move(start), o.count,
+        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); }, std::move(start), count,
         o.tolerance * c, std::min(o.max_iterations, kLobpcgIterations), o.progress);
     if (r.converged) {
       s.eigenvalues = r.values;
       s.eigenvectors = form.sqrt_mass().cwiseInverse().asDiagonal() * r.vectors;  // M-orthonormal
       s.iterations = r.iterations;
       s.operations = r.products;
+      detail::fix_signs(s.eigenvectors);
       return s;
     }
   }
   // Lanczos (Spectra) on c I - C, whose largest eigenvalues are the wanted ones.
-  ShiftedSymmetricOp shifted(form, n, c);
-  const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(4 * o.count, 40)));
-  const double lanczos_bytes = 2.0 * static_cast<double>(n) * (ncv + o.count) * sizeof(double);  // basis + result
+  ShiftedSymmetricOp shifted(form, c);
+  const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(4 * count, 40)));
+  const double lanczos_bytes = 2.0 * static_cast<double>(n) * (ncv + count) * sizeof(double);  // basis + result
   if (lanczos_bytes > o.memory_limit_bytes) {
     std::ostringstream msg;
-    msg << "smallest_eigenpairs: " << o.count << " eigenpairs of " << n << " rows need about "
+    msg << "smallest_eigenpairs: " << count << " eigenpairs of " << n << " rows need about "
         << lobpcg_need / 1e9 << " GB (LOBPCG) or " << lanczos_bytes / 1e9
         << " GB (Lanczos), above the memory limit of " << o.memory_limit_bytes / 1e9 << " GB; ask for fewer";
     throw Error(msg.str());
   }
-  Spectra::SymEigsSolver<ShiftedSymmetricOp> eigs(shifted, o.count, ncv);
+  Spectra::SymEigsSolver<ShiftedSymmetricOp> eigs(shifted, count, ncv);
   eigs.init();
   const Eigen::Index converged = eigs.compute(Spectra::SortRule::LargestAlge, o.max_iterations, o.tolerance,
                                               Spectra::SortRule::LargestAlge);
-  detail::require_converged(eigs, converged, o.count, ncv);
+  detail::require_converged(eigs, converged, count, ncv);
   s.eigenvalues = c - eigs.eigenvalues().array();  // descending theta = ascending lambda
   s.eigenvectors = form.sqrt_mass().cwiseInverse().asDiagonal() * eigs.eigenvectors();  // M-orthonormal
   s.iterations = static_cast<int>(eigs.num_iterations());
   s.operations = static_cast<int>(eigs.num_operations());
+  detail::fix_signs(s.eigenvectors);
   return s;
+}
+
+// Every contour's spectrum (min(count, n_c) pairs each), after checking that each contour is
+// one connected block.
+std::vector<detail::SpectrumPart> contour_parts(const MatrixFreeLaplacian& op, int count, const SpectrumOptions& o) {
+  std::vector<detail::SpectrumPart> parts(op.contour_lengths().size());
+  for (std::size_t c = 0; c < parts.size(); ++c) {
+    const Eigen::Index first = op.row_offset()[c], n = op.row_offset()[c + 1] - first;
+    if (!op.contour_is_connected(c)) {
+      std::ostringstream msg;
+      msg << "smallest_eigenpairs: on contour " << c << " the kernel's cut k sqrt(t) = " << op.cut()
+          << " does not reach from every element to the next, so its elements fall into groups that do not "
+             "interact; raise t or k, or use the factorized operator";
+      throw Error(msg.str());
+    }
+    parts[c].rows.resize(static_cast<std::size_t>(n));
+    std::iota(parts[c].rows.begin(), parts[c].rows.end(), first);
+    parts[c].spectrum = contour_spectrum(op, c, static_cast<int>(std::min<Eigen::Index>(count, n)), o);
+  }
+  return parts;
+}
+
+}  // namespace
+
+bool MatrixFreeLaplacian::contour_is_connected(std::size_t c) const {
+  const Contour& ct = contours_.at(c);
+  for (Eigen::Index i = 0; i < ct.n && ct.n > 1; ++i)
+    if (fwd_[ct.offset + i] < 1) return false;
+  return true;
+}
+
+Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
+  detail::check_eigen_request(op.mass(), o.count);
+  // Contour by contour (the operator is block-diagonal by contour), then merged: repeated
+  // eigenvalues of identical contours are all counted (spectrum_parts.hpp).
+  return detail::merge_parts(contour_parts(op, o.count, o), op.rows(), o.count);
+}
+
+std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
+  if (o.count < 1) throw Error("smallest_eigenpairs_per_contour: count must be >= 1, got " + std::to_string(o.count));
+  detail::check_eigen_request(op.mass(), 1);  // masses > 0
+  std::vector<Spectrum> spectra;
+  for (detail::SpectrumPart& part : contour_parts(op, o.count, o)) spectra.push_back(std::move(part.spectrum));
+  return spectra;
 }
 
 }  // namespace digilap

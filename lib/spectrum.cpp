@@ -1,12 +1,15 @@
 #include "digilap/spectrum.hpp"
 
 #include "digilap/error.hpp"
+#include "components.hpp"
 #include "eigen_checks.hpp"
+#include "spectrum_parts.hpp"
 
 #include <Eigen/SparseCholesky>
 #include <Spectra/SymGEigsShiftSolver.h>
 
 #include <cmath>
+#include <exception>
 #include <sstream>
 
 namespace digilap {
@@ -18,17 +21,21 @@ using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 // y = (-A - sigma M)^{-1} x through a simplicial LDL^T: the natural factorization for this
 // symmetric positive definite matrix (Spectra's generic sparse shift-solve uses SparseLU).
+// The pattern is analysed once: a new shift, or the inertia at another sigma, only refactorizes.
 class ShiftInvertOp {
 public:
   using Scalar = double;
-  ShiftInvertOp(const SparseMatrix& A, const Eigen::VectorXd& mass) : minus_A_(-A), mass_(mass) {}
+  ShiftInvertOp(const SparseMatrix& A, const Eigen::VectorXd& mass) : mass_(mass) {
+    ColMatrix identity(A.rows(), A.cols());
+    identity.setIdentity();
+    minus_A_ = -A;
+    minus_A_ += 0.0 * identity;  // every diagonal entry stored: shifts keep the pattern
+    solver_.analyzePattern(minus_A_);
+  }
   Eigen::Index rows() const { return mass_.size(); }
   Eigen::Index cols() const { return mass_.size(); }
   void set_shift(double sigma) {
-    ColMatrix K = minus_A_;
-    for (Eigen::Index i = 0; i < K.outerSize(); ++i) K.coeffRef(i, i) -= sigma * mass_[i];
-    solver_.compute(K);
-    if (solver_.info() != Eigen::Success)
+    if (!factorize(sigma))
       throw Error("smallest_eigenpairs: the factorization of -A - sigma M failed (is A negative semidefinite?)");
   }
   void perform_op(const double* x_in, double* y_out) const {
@@ -36,8 +43,20 @@ public:
     Eigen::Map<Eigen::VectorXd> y(y_out, rows());
     y = solver_.solve(x);
   }
+  /// How many eigenvalues of -A x = lambda M x lie below sigma: the negative pivots of the
+  /// LDL^T of -A - sigma M (Sylvester's law of inertia); -1 if it cannot be factorized.
+  Eigen::Index eigenvalues_below(double sigma) {
+    if (!factorize(sigma)) return -1;
+    return (solver_.vectorD().array() < 0).count();
+  }
 
 private:
+  bool factorize(double sigma) {
+    ColMatrix K = minus_A_;
+    for (Eigen::Index i = 0; i < K.outerSize(); ++i) K.coeffRef(i, i) -= sigma * mass_[i];
+    solver_.factorize(K);
+    return solver_.info() == Eigen::Success;
+  }
   ColMatrix minus_A_;
   Eigen::VectorXd mass_;
   Eigen::SimplicialLDLT<ColMatrix> solver_;
@@ -66,31 +85,171 @@ double heat_kernel_eigenvalue(int m, double P, double t) {
   return -std::expm1(-w2 * t) / t;
 }
 
-Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& o) {
+namespace {
+
+// The rows of one part as a compressed matrix of its own, columns renumbered by `local` (the
+// position of each row in its part). Parts are unions of components: no entry leaves them.
+SparseMatrix part_of(const SparseMatrix& A, const std::vector<Eigen::Index>& rows, const std::vector<Eigen::Index>& local) {
+  const auto n = static_cast<Eigen::Index>(rows.size());
+  Eigen::Index nonzeros = 0;
+  for (Eigen::Index r : rows) nonzeros += A.outerIndexPtr()[r + 1] - A.outerIndexPtr()[r];
+  SparseMatrix part(n, n);
+  part.resizeNonZeros(nonzeros);
+  int* outer = part.outerIndexPtr();
+  outer[0] = 0;
+  Eigen::Index k = 0;
+  for (Eigen::Index r = 0; r < n; ++r) {
+    for (int e = A.outerIndexPtr()[rows[r]]; e < A.outerIndexPtr()[rows[r] + 1]; ++e, ++k) {
+      part.innerIndexPtr()[k] = static_cast<int>(local[A.innerIndexPtr()[e]]);  // ascending: local is monotone
+      part.valuePtr()[k] = A.valuePtr()[e];
+    }
+    outer[r + 1] = static_cast<int>(k);
+  }
+  return part;
+}
+
+// Spectra's shift-and-invert Lanczos for the `count` smallest eigenpairs of one part.
+Spectrum lanczos(ShiftInvertOp& op, const Eigen::VectorXd& mass, int count, const SpectrumOptions& o) {
   const Eigen::Index n = mass.size();
-  if (A.rows() != n || A.cols() != n)
-    throw Error("smallest_eigenpairs: A is " + std::to_string(A.rows()) + "x" + std::to_string(A.cols()) +
-                " but there are " + std::to_string(n) + " masses");
-  detail::check_eigen_request(mass, o.count);
   // A shift just below 0: -A - sigma M is then definite, and the eigenvalue 0 of each contour
   // stays well separated from the shift relative to the first non-zero one (about (2 pi / P)^2).
   const double sigma = -1e-2 * (2 * kPi / mass.sum()) * (2 * kPi / mass.sum());
-  const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(2 * o.count + 1, 20)));
-  if (ncv <= o.count)
+  const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(2 * count + 1, 20)));
+  if (ncv <= count)
     throw Error("smallest_eigenpairs: the subspace size must exceed count");
-  ShiftInvertOp op(A, mass);
   MassOp bop(mass);
-  Spectra::SymGEigsShiftSolver<ShiftInvertOp, MassOp, Spectra::GEigsMode::ShiftInvert> eigs(op, bop, o.count, ncv, sigma);
+  Spectra::SymGEigsShiftSolver<ShiftInvertOp, MassOp, Spectra::GEigsMode::ShiftInvert> eigs(op, bop, count, ncv, sigma);
   eigs.init();
   const Eigen::Index converged =
       eigs.compute(Spectra::SortRule::LargestMagn, o.max_iterations, o.tolerance, Spectra::SortRule::SmallestAlge);
-  detail::require_converged(eigs, converged, o.count, ncv);
+  detail::require_converged(eigs, converged, count, ncv);
   Spectrum s;
   s.eigenvalues = eigs.eigenvalues();
   s.eigenvectors = eigs.eigenvectors();
   s.iterations = static_cast<int>(eigs.num_iterations());
   s.operations = static_cast<int>(eigs.num_operations());
   return s;
+}
+
+// The `count` smallest eigenpairs of one connected part (its kernel is its constants: simple).
+// Small parts are solved densely. Larger ones by Lanczos, whose answer is then checked by the
+// inertia: had it skipped a copy of a repeated eigenvalue, more eigenvalues than it returned
+// would lie below its last one. It is then asked for more; the dense solver is the last resort.
+Spectrum connected_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, int count, const SpectrumOptions& o) {
+  const Eigen::Index n = mass.size();
+  constexpr Eigen::Index kDenseLastResort = 3000;
+  if (n <= detail::kDenseRows || 2 * count + 1 > n) {
+    if (n > kDenseLastResort)
+      throw Error("smallest_eigenpairs: " + std::to_string(count) + " eigenpairs of a part of " + std::to_string(n) +
+                  " rows is more than half of them; ask for fewer");
+    return detail::dense_spectrum(Eigen::MatrixXd(A), mass, count);
+  }
+  ShiftInvertOp op(A, mass);
+  int asked = count;
+  for (int attempt = 0; attempt < 3 && 2 * asked + 1 <= n; ++attempt) {
+    Spectrum s = lanczos(op, mass, asked, o);
+    // Just above the count-th eigenvalue (far above Lanczos's accuracy, far below the splits
+    // of the pairs of a closed curve), relative to the first non-zero scale (2 pi / P)^2.
+    const double scale = std::pow(2 * kPi / mass.sum(), 2);
+    const double sigma = s.eigenvalues[count - 1] + 1e-8 * std::max(s.eigenvalues[count - 1], scale);
+    const Eigen::Index returned = (s.eigenvalues.array() < sigma).count();
+    const Eigen::Index below = op.eigenvalues_below(sigma);
+    if (below >= 0 && below <= returned) {
+      s.eigenvalues.conservativeResize(count);
+      s.eigenvectors.conservativeResize(Eigen::NoChange, count);
+      detail::fix_signs(s.eigenvectors);
+      return s;
+    }
+    asked = static_cast<int>(std::max<Eigen::Index>(asked + 1, below + 2));
+  }
+  if (n > kDenseLastResort) {
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs: Lanczos keeps skipping copies of a repeated eigenvalue in a part of " << n
+        << " rows (the inertia of -A - sigma M counts more eigenvalues than it returns); ask for fewer eigenpairs";
+    throw Error(msg.str());
+  }
+  return detail::dense_spectrum(Eigen::MatrixXd(A), mass, count);
+}
+
+// Solves each part (in parallel when there are several) and merges them. `count_of_part`
+// gives how many pairs each part must provide.
+template <class CountOfPart>
+std::vector<detail::SpectrumPart> solve_parts(const SparseMatrix& A, const Eigen::VectorXd& mass,
+                                              std::vector<std::vector<Eigen::Index>> rows_of_part,
+                                              CountOfPart&& count_of_part, const SpectrumOptions& o) {
+  std::vector<Eigen::Index> local(static_cast<std::size_t>(mass.size()));
+  for (const auto& rows : rows_of_part)
+    for (std::size_t r = 0; r < rows.size(); ++r) local[rows[r]] = static_cast<Eigen::Index>(r);
+  std::vector<detail::SpectrumPart> parts(rows_of_part.size());
+  std::vector<std::exception_ptr> failure(parts.size());
+  const auto count = static_cast<Eigen::Index>(parts.size());
+#pragma omp parallel for schedule(dynamic) if (count > 1)
+  for (Eigen::Index p = 0; p < count; ++p) {
+    try {
+      detail::SpectrumPart& part = parts[p];
+      part.rows = std::move(rows_of_part[p]);
+      Eigen::VectorXd part_mass(static_cast<Eigen::Index>(part.rows.size()));
+      for (std::size_t r = 0; r < part.rows.size(); ++r) part_mass[static_cast<Eigen::Index>(r)] = mass[part.rows[r]];
+      part.spectrum = connected_spectrum(part_of(A, part.rows, local), part_mass, count_of_part(part.rows.size()), o);
+    } catch (...) {
+      failure[p] = std::current_exception();
+    }
+  }
+  for (const auto& f : failure)
+    if (f) std::rethrow_exception(f);
+  return parts;
+}
+
+void check_sizes(const SparseMatrix& A, const Eigen::VectorXd& mass) {
+  if (A.rows() != mass.size() || A.cols() != mass.size())
+    throw Error("smallest_eigenpairs: A is " + std::to_string(A.rows()) + "x" + std::to_string(A.cols()) +
+                " but there are " + std::to_string(mass.size()) + " masses");
+}
+
+}  // namespace
+
+Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& o) {
+  check_sizes(A, mass);
+  detail::check_eigen_request(mass, o.count);
+  // Part by part: the connected components of A (one per contour in geodesic mode).
+  const auto parts = solve_parts(A, mass, detail::connected_components(A).rows,
+                                 [&](std::size_t rows) { return static_cast<int>(std::min<std::size_t>(o.count, rows)); }, o);
+  return detail::merge_parts(parts, mass.size(), o.count);
+}
+
+std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& o) {
+  check_sizes(op.A, op.mass);
+  if (o.count < 1) throw Error("smallest_eigenpairs_per_contour: count must be >= 1, got " + std::to_string(o.count));
+  detail::check_eigen_request(op.mass, 1);  // masses > 0
+  const detail::Components components = detail::connected_components(op.A);
+  std::vector<std::vector<Eigen::Index>> rows_of_part;  // the components, grouped by contour
+  std::vector<std::size_t> contour_of_part;
+  for (std::size_t c = 0; c + 1 < op.row_offset.size(); ++c) {
+    for (Eigen::Index r = op.row_offset[c]; r < op.row_offset[c + 1]; ++r) {
+      const auto& rows = components.rows[components.of_row[r]];
+      if (rows.front() < op.row_offset[c] || rows.back() >= op.row_offset[c + 1])
+        throw Error("smallest_eigenpairs_per_contour: contour " + std::to_string(c) +
+                    " interacts with another one (Euclidean distance): a spectrum per contour needs the geodesic operator");
+      if (rows.front() == r) {
+        rows_of_part.push_back(rows);
+        contour_of_part.push_back(c);
+      }
+    }
+  }
+  const auto parts = solve_parts(op.A, op.mass, std::move(rows_of_part),
+                                 [&](std::size_t rows) { return static_cast<int>(std::min<std::size_t>(o.count, rows)); }, o);
+  std::vector<Spectrum> spectra;
+  for (std::size_t c = 0; c + 1 < op.row_offset.size(); ++c) {
+    std::vector<detail::SpectrumPart> of_contour;
+    for (std::size_t p = 0; p < parts.size(); ++p)
+      if (contour_of_part[p] == c) {
+        of_contour.push_back(parts[p]);
+        for (Eigen::Index& r : of_contour.back().rows) r -= op.row_offset[c];
+      }
+    const Eigen::Index n = op.row_offset[c + 1] - op.row_offset[c];
+    spectra.push_back(detail::merge_parts(of_contour, n, static_cast<int>(std::min<Eigen::Index>(o.count, n))));
+  }
+  return spectra;
 }
 
 Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options) {

@@ -1,11 +1,16 @@
 // Spectrum: eigenvalues against SPEC §5, M-orthonormality, several contours, clear errors.
 #include "digilap/error.hpp"
+#include "digilap/image.hpp"
+#include "digilap/matrix_free.hpp"
 #include "digilap/spectrum.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <omp.h>
 
 using namespace digilap;
 
@@ -104,5 +109,205 @@ TEST(Spectrum, ClearErrors) {
     FAIL() << "no exception";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("did not converge"), std::string::npos) << e.what();
+  }
+}
+
+// --- Repeated eigenvalues (issue 15, item 1) -------------------------------------------------
+
+namespace {
+
+struct ContourProblem {
+  std::string name;
+  ContourSet contours;
+  Measures mu;
+  HeatLaplacianOptions options;
+};
+
+// Squares of the given sizes (pixels) in one row, `gap` pixels apart, grid step h.
+ContourProblem squares(const std::string& name, const std::vector<int>& sizes, int gap, double h, double t) {
+  std::vector<Eigen::Vector2i> pixels;
+  int x = 0;
+  for (int s : sizes) {
+    for (int j = 0; j < s; ++j)
+      for (int i = 0; i < s; ++i) pixels.emplace_back(x + i, j);
+    x += s + gap;
+  }
+  const DigitalSet set = DigitalSet::from_pixels(h, pixels);
+  ContourProblem p{name, track_contours(set), {}, {}};
+  IINormalOptions normal_options;
+  normal_options.k_R = 0.3;
+  p.mu = measures(p.contours, ii_normals(set, p.contours, normal_options));
+  p.options.t = t;
+  return p;
+}
+
+// The sets the tests solve: the issue's image of ten identical squares, thirty identical small
+// squares (0 thirty times), and contours of different sizes and kinds (squares of 5..9
+// pixels, a disc and an annulus: one contour then has a hole's orientation).
+std::vector<ContourProblem> multi_contour_sets() {
+  std::vector<ContourProblem> sets;
+  {
+    const DigitalSet set = binarize(read_image(std::string(DIGILAP_SOURCE_DATA) + "/ten_squares.pbm"), {0.02});
+    ContourProblem p{"ten_squares.pbm", track_contours(set), {}, {}};
+    IINormalOptions normal_options;
+    normal_options.k_R = 0.3;
+    p.mu = measures(p.contours, ii_normals(set, p.contours, normal_options));
+    p.options.t = 4e-4;
+    sets.push_back(std::move(p));
+  }
+  sets.push_back(squares("thirty 5-pixel squares", std::vector<int>(30, 5), 4, 0.02, 4e-4));
+  {
+    ContourProblem p = squares("squares of 5..9 pixels", {5, 6, 7, 8, 9, 7, 5}, 4, 0.02, 4e-4);
+    sets.push_back(std::move(p));
+  }
+  {
+    std::vector<std::uint8_t> bits(30 * 30);
+    for (int r = 0; r < 30; ++r)
+      for (int c = 0; c < 30; ++c) {
+        const double d = std::hypot(r - 14.5, c - 14.5);
+        bits[r * 30 + c] = (d < 14 && d > 9) || d < 5;
+      }
+    const DigitalSet set = DigitalSet::from_bitmap(0.02, 30, 30, bits);
+    ContourProblem p{"annulus and disc", track_contours(set), {}, {}};
+    IINormalOptions normal_options;
+    normal_options.k_R = 0.3;
+    p.mu = measures(p.contours, ii_normals(set, p.contours, normal_options));
+    p.options.t = 1e-3;
+    sets.push_back(std::move(p));
+  }
+  {  // Two identical discs of 480 rows each: above the dense size, so Lanczos and LOBPCG run.
+    std::vector<std::uint8_t> bits(260 * 122);
+    for (int r = 0; r < 122; ++r)
+      for (int c = 0; c < 260; ++c) bits[r * 260 + c] = std::hypot(r - 60.5, (c % 130) - 60.5) < 60;
+    const DigitalSet set = DigitalSet::from_bitmap(0.01, 260, 122, bits);
+    ContourProblem p{"two identical discs", track_contours(set), {}, {}};
+    p.mu = measures(p.contours, ii_normals(set, p.contours));
+    sets.push_back(std::move(p));
+  }
+  return sets;
+}
+
+// All eigenvalues of -A x = lambda M x, ascending, by a dense generalized solver.
+Eigen::VectorXd dense_eigenvalues(const SparseMatrix& A, const Eigen::VectorXd& mass) {
+  Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::MatrixXd> eig(-Eigen::MatrixXd(A), Eigen::MatrixXd(mass.asDiagonal()));
+  return eig.eigenvalues();
+}
+
+// |C y - lambda y| for the pair in symmetric form, relative to the spectrum's bound.
+double worst_residual(const ContourOperator& op, const Spectrum& s) {
+  double worst = 0;
+  for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
+    const Eigen::VectorXd r = -op.A * s.eigenvectors.col(k) - s.eigenvalues[k] * op.mass.cwiseProduct(s.eigenvectors.col(k));
+    worst = std::max(worst, r.cwiseQuotient(op.mass.cwiseSqrt()).norm());
+  }
+  return worst;
+}
+
+}  // namespace
+
+// Both solvers return every copy: against a dense solver, the `count` smallest eigenvalues of
+// each set agree (before, the factorized path dropped copies and the matrix-free one returned
+// 6 zeros for 10 contours, or 20 of 30, then larger eigenvalues, all with small residuals).
+TEST(Spectrum, RepeatedEigenvaluesOfSeveralContoursAreAllFound) {
+  for (const ContourProblem& p : multi_contour_sets()) {
+    const ContourOperator op = heat_laplacian(p.contours, p.mu, p.options);
+    const Eigen::VectorXd exact = dense_eigenvalues(op.A, op.mass);
+    const double scale = exact[exact.size() - 1];
+    SpectrumOptions so;
+    so.count = static_cast<int>(std::min<std::size_t>(3 * p.contours.contours.size() + 5, exact.size() - 1));
+    const Spectrum factorized = smallest_eigenpairs(op, so);
+    const MatrixFreeLaplacian mf(p.contours, p.mu, p.options);
+    const Spectrum matrix_free = smallest_eigenpairs(mf, so);
+    ASSERT_EQ(factorized.eigenvalues.size(), so.count) << p.name;
+    ASSERT_EQ(matrix_free.eigenvalues.size(), so.count) << p.name;
+    // The dense solver's own rounding is about 1e-13 of the largest eigenvalue; the matrix-free
+    // product adds its epsilon (1e-10 relative to the operator's scale).
+    for (int k = 0; k < so.count; ++k) {
+      EXPECT_NEAR(factorized.eigenvalues[k], exact[k], 1e-11 * scale) << p.name << ", k = " << k;
+      EXPECT_NEAR(matrix_free.eigenvalues[k], exact[k], 1e-8 * scale) << p.name << ", k = " << k;
+    }
+    const Eigen::MatrixXd gram = factorized.eigenvectors.transpose() * op.mass.asDiagonal() * factorized.eigenvectors;
+    EXPECT_LE((gram - Eigen::MatrixXd::Identity(so.count, so.count)).cwiseAbs().maxCoeff(), 1e-9) << p.name;
+    EXPECT_LE(worst_residual(op, factorized), 1e-8 * scale) << p.name;
+    EXPECT_LE(worst_residual(op, matrix_free), 1e-7 * scale) << p.name;
+    // Exactly one zero per contour: the count of eigenvalues below half the first non-zero one.
+    const Eigen::Index zeros = (factorized.eigenvalues.array() < 0.5 * exact[p.contours.contours.size()]).count();
+    EXPECT_EQ(zeros, static_cast<Eigen::Index>(std::min<std::size_t>(p.contours.contours.size(), so.count))) << p.name;
+    std::printf("%s: %zu contours, N = %ld, %d eigenpairs equal the dense ones (lambda_%d = %.6g)\n", p.name.c_str(),
+                p.contours.contours.size(), static_cast<long>(op.rows()), so.count, so.count - 1,
+                factorized.eigenvalues[so.count - 1]);
+  }
+}
+
+// The spectrum per contour: each contour's pairs equal a dense solve of its own block, for
+// both solvers, and their union is the joint spectrum.
+TEST(Spectrum, PerContourSpectraEqualEachContoursOwnBlock) {
+  for (const ContourProblem& p : multi_contour_sets()) {
+    const ContourOperator op = heat_laplacian(p.contours, p.mu, p.options);
+    SpectrumOptions so;
+    so.count = 7;
+    const std::vector<Spectrum> per_contour = smallest_eigenpairs_per_contour(op, so);
+    const std::vector<Spectrum> per_contour_mf = smallest_eigenpairs_per_contour(MatrixFreeLaplacian(p.contours, p.mu, p.options), so);
+    ASSERT_EQ(per_contour.size(), p.contours.contours.size());
+    ASSERT_EQ(per_contour_mf.size(), p.contours.contours.size());
+    std::vector<double> all;
+    for (std::size_t c = 0; c < per_contour.size(); ++c) {
+      const Eigen::Index first = op.row_offset[c], n = op.row_offset[c + 1] - first;
+      const SparseMatrix block = op.A.block(first, first, n, n);
+      const Eigen::VectorXd exact = dense_eigenvalues(block, op.mass.segment(first, n));
+      const double scale = exact[n - 1];
+      ASSERT_EQ(per_contour[c].eigenvalues.size(), std::min<Eigen::Index>(so.count, n));
+      ASSERT_EQ(per_contour[c].eigenvectors.rows(), n);
+      for (Eigen::Index k = 0; k < per_contour[c].eigenvalues.size(); ++k) {
+        EXPECT_NEAR(per_contour[c].eigenvalues[k], exact[k], 1e-11 * scale) << p.name << ", contour " << c;
+        EXPECT_NEAR(per_contour_mf[c].eigenvalues[k], exact[k], 1e-8 * scale) << p.name << ", contour " << c;
+        all.push_back(per_contour[c].eigenvalues[k]);
+      }
+    }
+    std::sort(all.begin(), all.end());
+    so.count = 12;
+    const Spectrum joint = smallest_eigenpairs(op, so);
+    for (int k = 0; k < so.count; ++k) EXPECT_NEAR(joint.eigenvalues[k], all[k], 1e-11 * std::abs(all.back())) << p.name;
+  }
+  // Contours that interact (Euclidean distance, the squares 3 pixels apart) have no spectrum of
+  // their own: refused with the reason.
+  ContourProblem p = squares("two squares", {6, 6}, 3, 0.02, 4e-4);
+  p.options.distance = DistanceMode::Euclidean;
+  try {
+    smallest_eigenpairs_per_contour(heat_laplacian(p.contours, p.mu, p.options));
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("interacts with another one"), std::string::npos) << e.what();
+  }
+}
+
+// Issue 15, item 7: the matrix-free spectrum (LOBPCG's dense block algebra) is the same bit
+// for bit for 1 and 2 threads, eigenvectors included (they differed by up to 0.69: sign flips
+// and rotations inside near-degenerate pairs), and so is the factorized one.
+TEST(Spectrum, BitwiseIdenticalForOneAndTwoThreads) {
+  const DigitalSet set = digitize(Flower(), 0.002);
+  const ContourSet cs = track_contours(set);
+  const Measures mu = measures(cs, ii_normals(set, cs));
+  const MatrixFreeLaplacian mf(cs, mu);
+  const ContourOperator op = heat_laplacian(cs, mu);
+  SpectrumOptions so;
+  so.count = 9;
+  const int threads = omp_get_max_threads();
+  Spectrum one[2], two[2];
+  omp_set_num_threads(1);
+  one[0] = smallest_eigenpairs(mf, so);
+  one[1] = smallest_eigenpairs(op, so);
+  omp_set_num_threads(2);
+  two[0] = smallest_eigenpairs(mf, so);
+  two[1] = smallest_eigenpairs(op, so);
+  omp_set_num_threads(threads);
+  for (int path = 0; path < 2; ++path) {
+    ASSERT_EQ(one[path].eigenvectors.size(), two[path].eigenvectors.size());
+    EXPECT_EQ(std::memcmp(one[path].eigenvalues.data(), two[path].eigenvalues.data(), sizeof(double) * one[path].eigenvalues.size()), 0)
+        << (path ? "factorized" : "matrix-free") << ": max difference "
+        << (one[path].eigenvalues - two[path].eigenvalues).cwiseAbs().maxCoeff();
+    EXPECT_EQ(std::memcmp(one[path].eigenvectors.data(), two[path].eigenvectors.data(), sizeof(double) * one[path].eigenvectors.size()), 0)
+        << (path ? "factorized" : "matrix-free") << ": max difference "
+        << (one[path].eigenvectors - two[path].eigenvectors).cwiseAbs().maxCoeff();
   }
 }

@@ -46,6 +46,9 @@ public:
   const Eigen::MatrixX2d& positions() const { return positions_; }
   /// Arclength coordinate S_i of each row along its contour, in [0, length of the contour).
   const Eigen::VectorXd& arclength() const { return s_; }
+  /// Whether every element of contour c interacts with the next one (the cut reaches it):
+  /// the contour's block is then one connected component, with the constants as its kernel.
+  bool contour_is_connected(std::size_t c) const;
   /// Length P of each contour (the period of its arclength coordinate).
   std::vector<double> contour_lengths() const;
 
@@ -53,6 +56,9 @@ public:
   /// it on the same operator from several threads at once (it reuses scratch buffers).
   void apply(const double* x, double* y) const;
   Eigen::VectorXd operator*(const Eigen::VectorXd& x) const;
+  /// y = L_c x for the block of contour c alone (x and y of its n_c rows, not aliased): the
+  /// operator is block-diagonal by contour. Same threading caveat as apply().
+  void apply_contour(std::size_t c, const double* x, double* y) const;
   /// y = A x = M L x.
   Eigen::VectorXd apply_stiffness(const Eigen::VectorXd& x) const;
 
@@ -82,7 +88,9 @@ private:
   void plan_contour(Contour& ct, double epsilon);
   // (G * f)_i over the window of each row i (j = i included), into out.
   void gauss_transform(const double* f, double* out) const;
-  void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* f, double* out) const;
+  // The same for one contour, f and out pointing at its first row.
+  void contour_transform(const Contour& ct, const double* fc, double* oc) const;
+  void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc, double* oc) const;
 
   std::vector<Contour> contours_;
   std::vector<Eigen::Index> offset_;
@@ -101,17 +109,25 @@ private:
   mutable Eigen::VectorXd weighted_, transformed_;
 };
 
-/// The `count` smallest eigenpairs of -A x = lambda M x through the matrix-free operator, on
-/// C = M^(1/2) (-L) M^(-1/2). First block LOBPCG preconditioned by the 1D Laplacian along the
+/// The `count` smallest eigenpairs of -A x = lambda M x through the matrix-free operator,
+/// contour by contour (the operator is block-diagonal by contour), merged so that repeated
+/// eigenvalues of identical contours all count; contours of up to 400 rows are solved densely.
+/// On each larger contour, on C = M^(1/2) (-L_c) M^(-1/2): first block LOBPCG preconditioned by the 1D Laplacian along the
 /// arclength (its heat-operator form D2 (I + t D2)^-1, a cyclic tridiagonal solve): about 10
 /// iterations whatever h. If that has not converged after min(max_iterations, 300) iterations
 /// (or N is tiny), Lanczos (Spectra) on c I - C, c = 2 max|L_ii| (Gershgorin), with
 /// max_iterations restarts and `subspace` vectors. Converged when every wanted residual
 /// |C y - lambda y| <= tolerance * c (LOBPCG), or Spectra's Ritz-value test at `tolerance`.
 /// No factorization of L: memory O(N count). Eigenvectors are M-orthonormal; `iterations`
-/// and `operations` report the method that answered. Throws digilap::Error for a zero mass or
-/// no convergence.
+/// and `operations` report the method that answered (summed over contours); eigenvectors have
+/// a fixed sign (largest entry positive), and the result does not depend on the number of
+/// threads. Throws digilap::Error for a zero mass, no convergence, or a contour whose
+/// elements do not interact (a cut below the spacing of consecutive elements).
 Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& options = {});
+
+/// The spectrum of each contour on its own: element c holds the min(count, n_c) smallest
+/// eigenpairs of contour c, on its n_c rows.
+std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian& op, const SpectrumOptions& options = {});
 
 /// One implicit Euler heat step (M - dt A) u' = M u solved by Eigen's ConjugateGradient on the
 /// matrix-free operator (Jacobi preconditioner), to relative residual `tolerance`.

@@ -3,8 +3,17 @@
 // Solves the generalized problem  -A x = lambda M x  (A = M L symmetric negative semidefinite,
 // M = diag(mu)) for its smallest eigenvalues, ascending, by Lanczos in shift-and-invert mode
 // with a sparse Cholesky (LDL^T) factorization of -A - sigma M, sigma slightly negative.
-// Eigenvectors are M-orthonormal: x_i^T M x_j = delta_ij. Each closed contour contributes
-// one eigenvalue 0 (its constant vector).
+// Eigenvectors are M-orthonormal: x_i^T M x_j = delta_ij, with a fixed sign (the entry of
+// largest magnitude is positive). Each closed contour contributes one eigenvalue 0 (its
+// constant vector).
+//
+// Repeated eigenvalues are all returned. The operator falls into connected components (one per
+// contour in geodesic mode) whose spectra make up the whole one, with multiplicities: ten
+// identical contours give every eigenvalue ten times, which a Krylov solver run on the whole
+// would see once. So each component is solved on its own (densely up to 400 rows, in parallel
+// when there are several) and the results merged; a component's Lanczos answer is checked by
+// the inertia of -A - sigma M (the number of eigenvalues below sigma) and recomputed when it
+// skipped a copy.
 #pragma once
 
 #include "digilap/heat_laplacian.hpp"
@@ -12,6 +21,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <vector>
 
 namespace digilap {
 
@@ -43,6 +53,13 @@ Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass,
 
 /// Convenience: from an operator (uses op.A and op.mass).
 Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options = {});
+
+/// The spectrum of each contour on its own (the natural shape descriptor of each object of an
+/// image): element c holds the min(count, n_c) smallest eigenpairs of contour c, on its n_c
+/// rows (row op.row_offset[c] + i of the operator is entry i). Contours are solved in
+/// parallel. Throws digilap::Error when contours interact (Euclidean distance), or when a mass
+/// is not > 0.
+std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& options = {});
 
 /// The heat-kernel operator's eigenvalues on a closed curve of length P with heat time t:
 /// (1 - exp(-omega^2 t)) / t, omega = 2 pi m / P (SPEC §5). With t = 0: omega^2 exactly.
