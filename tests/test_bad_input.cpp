@@ -84,6 +84,11 @@ const std::vector<Case> kCases = {
     {"count_too_large_matrix_free", "spectrum", "--shape circle --h 0.5 --count 50 --matrix-free", "", false, "count must be in [1,"},
     {"matrix_free_spectrum", "spectrum", "--shape circle --h 0.02 --matrix-free --quiet --out {dir}/mf", "", true, "matrix-free: "},
     {"matrix_free_memory", "spectrum", "--matrix-free --count 20 --memory-limit 1e6", "", false, "above the memory limit"},
+    {"ten_squares_per_contour", "spectrum", "--image {data}/ten_squares.pbm --h 0.02 --t 4e-4 --kR 0.3 --per-contour --count 5 --out {dir}/pc", "", true, "## contour 9: 24 rows"},
+    {"ten_squares_per_contour_matrix_free", "spectrum", "--image {data}/ten_squares.pbm --h 0.02 --t 4e-4 --kR 0.3 --per-contour --matrix-free --out {dir}/pcmf", "", true, "## contour 9: 24 rows"},
+    {"ten_squares_joint_says_they_mix", "spectrum", "--image {data}/ten_squares.pbm --h 0.02 --t 4e-4 --kR 0.3 --out {dir}/joint", "", true, "use --per-contour"},
+    {"per_contour_euclidean", "spectrum", "--image {data}/ten_squares.pbm --h 0.02 --t 4e-4 --kR 0.3 --per-contour --distance euclidean --out {dir}/pce", "", false, "interacts with another one"},
+    {"matrix_free_cut_below_spacing", "spectrum", "--shape circle --h 0.1 --count 3 --t 1e-6 --matrix-free --out {dir}/mfcut", "", false, "does not reach from every element to the next"},
     {"matrix_free_euclidean", "spectrum", "--matrix-free --distance euclidean", "", false, "only the geodesic distance"},
     {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
     {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},
@@ -101,7 +106,7 @@ TEST_P(BadInput, ClearMessageAndExitCode) {
   const std::string file = std::string(c.name) + ".img";
   if (c.args.find(file) != std::string::npos) std::ofstream(dir / file, std::ios::binary) << c.file;
   const std::string command =
-      app_path(c.app) + " --quiet " + replace_all(c.args, "{dir}", dir.string()) + " 2>&1";
+      app_path(c.app) + " --quiet " + replace_all(replace_all(c.args, "{dir}", dir.string()), "{data}", DIGILAP_SOURCE_DATA) + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");
   ASSERT_NE(pipe, nullptr);
   std::string output;

@@ -22,13 +22,15 @@ int main(int argc, char** argv) {
   spectrum_options.count = 11;
   std::string out_dir = "out/spectrum";
   int draw = 8;
-  bool quiet = false, matrix_free = false;
+  bool quiet = false, matrix_free = false, per_contour = false;
   app::add_front_end_options(app, fe_options);
   app::add_operator_options(app, op_options);
   app.add_option("--count", spectrum_options.count, "Number of eigenpairs")->capture_default_str();
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
   app.add_flag("--matrix-free", matrix_free,
                "Never store L: the matrix-free operator (geodesic distance only) and LOBPCG; memory O(N count)");
+  app.add_flag("--per-contour", per_contour,
+               "The spectrum of each contour on its own (one table per contour; the shape descriptor of each object)");
   app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
@@ -36,7 +38,9 @@ int main(int argc, char** argv) {
     app::Progress progress(quiet);
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     // What the tables and files need, from either operator.
-    Spectrum s;
+    // One spectrum for the whole set, or one per contour (vectors on the contour's own rows).
+    std::vector<Spectrum> spectra;
+    std::vector<double> lengths;
     Eigen::MatrixX2d positions;
     Eigen::VectorXd arclength;
     std::vector<Eigen::Index> row_offset;
@@ -56,70 +60,98 @@ int main(int argc, char** argv) {
         const double done = std::log(first_residual / std::max(residual, 1.0)) / std::log(first_residual);
         progress.bar("eigenpairs (LOBPCG)", std::clamp(done, 0.0, 1.0));
       };
-      s = smallest_eigenpairs(op, spectrum_options);
+      if (per_contour) spectra = smallest_eigenpairs_per_contour(op, spectrum_options);
+      else spectra = {smallest_eigenpairs(op, spectrum_options)};
       if (bar_shown) progress.end_bar();
       positions = op.positions();
       arclength = op.arclength();
       row_offset = op.row_offset();
       t = op.t();
-      P_est = op.contour_lengths()[0];
+      lengths = op.contour_lengths();
     } else {
       const ContourOperator op = app::build_operator(fe, op_options, progress);
       progress.start("eigenpairs");
-      s = smallest_eigenpairs(op, spectrum_options);
+      if (per_contour) spectra = smallest_eigenpairs_per_contour(op, spectrum_options);
+      else spectra = {smallest_eigenpairs(op, spectrum_options)};
       progress.finish();
       positions = op.positions;
       arclength = op.arclength;
       row_offset = op.row_offset;
       t = op.t;
-      P_est = op.contour_length[0];
+      lengths = op.contour_length;
     }
     const Eigen::Index rows = positions.rows();
+    const std::size_t contours = lengths.size();
+    int iterations = 0, operations = 0;
+    for (const Spectrum& s : spectra) iterations += s.iterations, operations += s.operations;
 
-    // Images have no exact curve: the exact column then uses the estimated length of contour 0.
-    const double P = fe.shape ? fe.exact_length : P_est;
-    std::printf("# %s, h = %g, N = %ld, t = %.4g, P = %.8g (estimated %.8g), %s: %d iterations, %d operator applications\n",
-                fe.name.c_str(), fe.contours.h, static_cast<long>(rows), t, P, P_est,
-                matrix_free ? "matrix-free" : "factorized", s.iterations, s.operations);
-    std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | lambda_k/lambda_1 (m^2) | pair split |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|\n");
+    // Images have no exact curve: the exact column then uses the estimated length.
+    std::printf("# %s, h = %g, N = %ld, %zu contour(s), t = %.4g, %s: %d iterations, %d operator applications\n",
+                fe.name.c_str(), fe.contours.h, static_cast<long>(rows), contours, t,
+                matrix_free ? "matrix-free" : "factorized", iterations, operations);
+    if (!per_contour && contours > 1)
+      std::printf("# several contours: their spectra mix (one 0 per contour); m and the exact columns assume contour 0 "
+                  "alone -- use --per-contour for a table per contour\n");
     std::filesystem::create_directories(out_dir);
     const std::string values_path = out_dir + "/eigenvalues.csv", vectors_path = out_dir + "/eigenvectors.csv",
                       svg_path = out_dir + "/eigenvectors.svg";
     std::ofstream values(values_path);
     if (!values) throw Error("cannot write '" + values_path + "'");
-    values << "k,m,lambda,exact,heat_kernel_formula\n";
+    values << (per_contour ? "contour," : "") << "k,m,lambda,exact,heat_kernel_formula\n";
     values.precision(15);
-    for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
-      const int m = static_cast<int>((k + 1) / 2);
-      const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t);
-      const double lambda = s.eigenvalues[k];
-      const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
-      char split[32] = "";
-      if (second_of_pair) std::snprintf(split, sizeof split, "%.1e", std::abs(lambda - s.eigenvalues[k - 1]) / lambda);
-      if (m == 0)
-        std::printf("| %ld | 0 | %.3e | 0 | | 0 | | | |\n", static_cast<long>(k), lambda);
+    for (std::size_t part = 0; part < spectra.size(); ++part) {
+      const Spectrum& s = spectra[part];
+      const double P_est = lengths[part];
+      const double P = fe.shape && contours == 1 ? fe.exact_length : P_est;
+      if (per_contour)
+        std::printf("\n## contour %zu: %ld rows, P = %.8g (estimated %.8g)\n", part,
+                    static_cast<long>(row_offset[part + 1] - row_offset[part]), P, P_est);
       else
-        std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %.4f (%d) | %s |\n", static_cast<long>(k), m, lambda, exact,
-                    lambda / exact - 1, formula, lambda / formula - 1, lambda / s.eigenvalues[1], m * m, split);
-      values << k << ',' << m << ',' << lambda << ',' << exact << ',' << formula << '\n';
+        std::printf("# P = %.8g (estimated %.8g)\n", P, P_est);
+      std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | lambda_k/lambda_1 (m^2) | pair split |\n");
+      std::printf("|---|---|---|---|---|---|---|---|---|\n");
+      for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
+        const int m = static_cast<int>((k + 1) / 2);
+        const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t);
+        const double lambda = s.eigenvalues[k];
+        const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
+        char split[32] = "";
+        if (second_of_pair) std::snprintf(split, sizeof split, "%.1e", std::abs(lambda - s.eigenvalues[k - 1]) / lambda);
+        if (m == 0)
+          std::printf("| %ld | 0 | %.3e | 0 | | 0 | | | |\n", static_cast<long>(k), lambda);
+        else
+          std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %.4f (%d) | %s |\n", static_cast<long>(k), m, lambda, exact,
+                      lambda / exact - 1, formula, lambda / formula - 1, lambda / s.eigenvalues[1], m * m, split);
+        if (per_contour) values << part << ',';
+        values << k << ',' << m << ',' << lambda << ',' << exact << ',' << formula << '\n';
+      }
+    }
+    // Eigenvector k on every row: from the joint spectrum, or each contour's own k-th vector.
+    Eigen::Index columns = 0;
+    for (const Spectrum& s : spectra) columns = std::max(columns, s.eigenvalues.size());
+    Eigen::MatrixXd phi = Eigen::MatrixXd::Zero(rows, columns);
+    for (std::size_t part = 0; part < spectra.size(); ++part) {
+      const Eigen::Index first = per_contour ? row_offset[part] : 0;
+      const Eigen::MatrixXd& v = spectra[part].eigenvectors;
+      phi.block(first, 0, v.rows(), v.cols()) = v;
     }
     std::ofstream vectors(vectors_path);
     if (!vectors) throw Error("cannot write '" + vectors_path + "'");
     vectors << "row,x,y,s";
-    for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ",phi_" << k;
+    for (Eigen::Index k = 0; k < columns; ++k) vectors << ",phi_" << k;
     vectors << '\n';
     vectors.precision(12);
     for (Eigen::Index r = 0; r < rows; ++r) {
       vectors << r << ',' << positions(r, 0) << ',' << positions(r, 1) << ',' << arclength[r];
-      for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) vectors << ',' << s.eigenvectors(r, k);
+      for (Eigen::Index k = 0; k < columns; ++k) vectors << ',' << phi(r, k);
       vectors << '\n';
     }
     std::vector<app::ContourPanel> panels;
-    for (Eigen::Index k = 1; k < s.eigenvalues.size() && static_cast<int>(panels.size()) < draw; ++k) {
+    for (Eigen::Index k = 1; k < columns && static_cast<int>(panels.size()) < draw; ++k) {
       char title[64];
-      std::snprintf(title, sizeof title, "phi_%ld, lambda = %.4g", static_cast<long>(k), s.eigenvalues[k]);
-      panels.push_back({title, s.eigenvectors.col(k)});
+      if (per_contour) std::snprintf(title, sizeof title, "phi_%ld of each contour", static_cast<long>(k));
+      else std::snprintf(title, sizeof title, "phi_%ld, lambda = %.4g", static_cast<long>(k), spectra[0].eigenvalues[k]);
+      panels.push_back({title, phi.col(k)});
     }
     if (!panels.empty())
       app::save_contour_panels(svg_path, positions, row_offset, panels, 4,
