@@ -141,12 +141,20 @@ double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffne
 }
 
 double heat_time(double h, const HeatLaplacianOptions& options) {
-  if (options.t != 0) {
-    check_positive("t", options.t);
-    return options.t;
+  double t = options.t;
+  if (t != 0) {
+    check_positive("t", t);
+  } else {
+    check_positive("c_t", options.c_t);
+    t = options.c_t * std::pow(h, 2.0 / 3.0);
   }
-  check_positive("c_t", options.c_t);
-  return options.c_t * std::pow(h, 2.0 / 3.0);
+  // The kernel's prefactor 1 / (t sqrt(4 pi t)) must be a number (t above about 1e-206).
+  if (!std::isfinite(1.0 / (t * std::sqrt(4.0 * kPi * t)))) {
+    std::ostringstream msg;
+    msg << "heat_laplacian: the heat time t = " << t << " is too small: the kernel's prefactor 1 / (t sqrt(4 pi t)) overflows";
+    throw Error(msg.str());
+  }
+  return t;
 }
 
 namespace {

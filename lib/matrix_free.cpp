@@ -89,12 +89,6 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   // truncations each get a tenth of the budget.
   order_ = hermite_order(0.5 * box_ / delta_, 0.1 * epsilon);
   scale_ = 1.0 / (t_ * std::sqrt(4 * kPi * t_));
-  const int terms = 2 * order_ - 1;
-  reach_ = static_cast<Eigen::Index>(std::ceil(cut_ / box_)) + 2;
-  hermite_at_offset_.resize(static_cast<std::size_t>(2 * reach_ + 1) * terms);
-  for (Eigen::Index d = -reach_; d <= reach_; ++d)
-    hermite_functions(static_cast<double>(d) * box_ / delta_, terms,
-                      &hermite_at_offset_[static_cast<std::size_t>(d + reach_) * terms]);
 
   const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
   mass_ = e.mu;
@@ -102,6 +96,40 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   positions_ = e.positions;
   offset_ = e.offset;
   const Eigen::Index n_all = mass_.size();
+  // Which contours are summed directly: those whose window covers half of them, tiny ones, and
+  // those with more boxes than elements (t so small that boxes would only be empty: the memory
+  // of the plan would grow like P / sqrt(t) instead of N, and direct windows are short then).
+  std::vector<bool> direct(offset_.size() - 1);
+  Eigen::Index most_boxes = 0, planned_rows = 0, planned_boxes = 0;
+  for (std::size_t c = 0; c + 1 < offset_.size(); ++c) {
+    const Eigen::Index n = offset_[c + 1] - offset_[c];
+    const double boxes = std::ceil(e.length[c] / box_);  // a double: P / box may exceed any integer
+    direct[c] = cut_ >= 0.5 * e.length[c] || n < 64 || boxes < 8 || boxes > static_cast<double>(n);
+    if (direct[c]) continue;
+    most_boxes = std::max(most_boxes, static_cast<Eigen::Index>(boxes));
+    planned_rows += n;
+    planned_boxes += static_cast<Eigen::Index>(boxes);
+  }
+  // Hermite values at the box offsets a core can have: within the cut, and within a contour.
+  const int terms = 2 * order_ - 1;
+  reach_ = std::min<Eigen::Index>(static_cast<Eigen::Index>(std::min(std::ceil(cut_ / box_), 1e15)) + 2, most_boxes);
+  // Estimate before allocating: per row the windows, element arrays and band factors (about
+  // 17 doubles, and 4 band entries of 2 doubles for a planned row), per box its plan and moments.
+  const double bytes = 8.0 * (17.0 * static_cast<double>(n_all) + 8.0 * static_cast<double>(planned_rows)) +
+                       static_cast<double>(planned_boxes) * (sizeof(TargetBox) + 16.0 + 8.0 * order_) +
+                       8.0 * static_cast<double>(2 * reach_ + 1) * terms;
+  if (bytes > options.memory_limit_bytes) {
+    std::ostringstream msg;
+    msg << "MatrixFreeLaplacian: the operator would take about " << bytes / 1e9 << " GB (" << n_all
+        << " rows), above the memory limit of " << options.memory_limit_bytes / 1e9
+        << " GB; raise memory_limit_bytes or use a coarser h";
+    throw Error(msg.str());
+  }
+  hermite_at_offset_.resize(static_cast<std::size_t>(2 * reach_ + 1) * terms);
+  for (Eigen::Index d = -reach_; d <= reach_; ++d)
+    hermite_functions(static_cast<double>(d) * box_ / delta_, terms,
+                      &hermite_at_offset_[static_cast<std::size_t>(d + reach_) * terms]);
+
   back_.assign(static_cast<std::size_t>(n_all), 0);
   fwd_.assign(static_cast<std::size_t>(n_all), 0);
   alpha_ = tau_forward_ = tau_backward_ = Eigen::VectorXd::Zero(n_all);
@@ -117,9 +145,11 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
       back_[ct.offset + i] = w.back;
       fwd_[ct.offset + i] = w.fwd;
     }
-    ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / box_));
-    ct.direct = cut_ >= 0.5 * ct.P || ct.n < 64 || ct.boxes < 8;
-    if (!ct.direct) plan_contour(ct, epsilon);
+    ct.direct = direct[c];
+    if (!ct.direct) {
+      ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / box_));
+      plan_contour(ct, epsilon);
+    }
     contours_.push_back(std::move(ct));
   }
   transform_of_mass_.resize(n_all);

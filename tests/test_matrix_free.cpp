@@ -104,18 +104,51 @@ TEST(MatrixFree, WindowEndSeriesAgreesForEveryWindowWidth) {
   }
 }
 
-// Windows about one element wide: the ends of a box's windows overlap, so those boxes are
-// summed term by term, and the result is still the explicit matrix's.
-TEST(MatrixFree, BoxesWhoseWindowEndsOverlapAreSummedDirectly) {
+// Windows about one element wide (k = 0.5): boxes would outnumber the elements, so the
+// contour is summed term by term, and the result is still the explicit matrix's.
+TEST(MatrixFree, ContoursWithMoreBoxesThanElementsAreSummedDirectly) {
   const Pipeline s = pipeline(Flower(), 0.05);
   HeatLaplacianOptions o;
   o.k = 0.5;
   const ContourOperator op = heat_laplacian(s.contours, s.mu, o);
   const MatrixFreeLaplacian mf(s.contours, s.mu, o);
-  EXPECT_GT(mf.direct_share(), 0.1);
-  EXPECT_LT(mf.direct_share(), 1.0);
+  EXPECT_EQ(mf.direct_share(), 1.0);
   const Eigen::VectorXd g = Eigen::VectorXd::Random(op.rows());
   EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * op.L.diagonal().cwiseAbs().maxCoeff());
+}
+
+// Issue 15, item 2: the operator's memory followed P / sqrt(t), not N (3.6 GB for N = 76 at
+// t = 1e-13, 11.4 GB at 1e-14, whatever the memory limit). With a tiny t, or a huge k, it is
+// now a few bytes per row, within a memory limit of 1 MB, and still equals the explicit one.
+// Above the limit it is refused with its estimate, before allocating.
+TEST(MatrixFree, MemoryFollowsTheRowsWhateverTAndK) {
+  const Pipeline s = pipeline(Circle(), 0.1);
+  for (auto [t, k] : {std::pair{1e-13, 6.0}, {1e-14, 6.0}, {1e-16, 1e9}, {1e-6, 6.0}, {1e-200, 1e300}}) {
+    HeatLaplacianOptions o;
+    o.t = t;
+    o.k = k;
+    o.memory_limit_bytes = 1e6;
+    const MatrixFreeLaplacian mf(s.contours, s.mu, o);
+    EXPECT_EQ(mf.direct_share(), 1.0) << "t = " << t;
+    const ContourOperator op = heat_laplacian(s.contours, s.mu, o);
+    const Eigen::VectorXd g = Eigen::VectorXd::Random(op.rows());
+    EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * std::max(1.0, op.L.diagonal().cwiseAbs().maxCoeff())) << "t = " << t;
+  }
+  const Pipeline fine = pipeline(Flower(), 0.002);
+  HeatLaplacianOptions o;
+  o.memory_limit_bytes = 1e5;
+  try {
+    MatrixFreeLaplacian(fine.contours, fine.mu, o);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("above the memory limit of 0.0001 GB; raise memory_limit_bytes or use a coarser h"),
+              std::string::npos) << e.what();
+  }
+  // A t whose prefactor overflows is refused by both operators.
+  o.t = 1e-300;
+  o.memory_limit_bytes = 1e9;
+  EXPECT_THROW(MatrixFreeLaplacian(fine.contours, fine.mu, o), Error);
+  EXPECT_THROW(heat_laplacian(fine.contours, fine.mu, o), Error);
 }
 
 // Every row is computed by one thread from per-box sums in a fixed order: the product must

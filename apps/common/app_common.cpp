@@ -151,7 +151,10 @@ int guarded_main(const std::function<int()>& body) {
   } catch (const Error& e) {
     std::cerr << "error: " << e.what() << "\n";
   } catch (const std::bad_alloc&) {
-    std::cerr << "error: out of memory; use a coarser h or a smaller t\n";
+    // Which parameter helps depends on the stage (a smaller t shrinks the explicit operator but
+    // not the matrix-free one): the estimates before each big allocation say; this is the rest.
+    std::cerr << "error: out of memory: the machine could not provide what this run asked for; "
+                 "use a coarser h or fewer eigenpairs, or set --memory-limit to have sizes checked first\n";
   } catch (const std::exception& e) {
     std::cerr << "error: " << e.what() << "\n";
   }
