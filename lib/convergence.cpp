@@ -111,6 +111,7 @@ ConvergenceResult convergence_sweep(const Shape& shape, const TestFunction& f, c
       row.elements = op.rows();
       row.nonzeros = op.L.nonZeros();
       row.t = op.t;
+      row.length_scale = mu.length_scale;
       row.max_error = err.maxCoeff();
       row.mean_error = err.mean();
       row.relative_max_error = row.max_error / lap.cwiseAbs().maxCoeff();

@@ -140,13 +140,19 @@ double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffne
   return (stiffness ? 2.0 : 1.0) * (12.0 * nonzeros + 4.0 * (rows + 1)) + 12.0 * rows + 32.0 * rows;
 }
 
-double heat_time(double h, const HeatLaplacianOptions& options) {
+double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures) {
   double t = options.t;
   if (t != 0) {
     check_positive("t", t);
   } else {
     check_positive("c_t", options.c_t);
-    t = options.c_t * std::pow(h, 2.0 / 3.0);
+    double l = options.length_scale;
+    if (l != 0) check_positive("length_scale", l);
+    else l = measures.length_scale;
+    if (!(l > 0 && std::isfinite(l)))
+      throw Error("heat_laplacian: no length scale for the default heat time c_t h^(2/3) l^(4/3): the measures do "
+                  "not carry one (they come from ii_normals or exact_normals); give t or length_scale");
+    t = options.c_t * std::pow(h, 2.0 / 3.0) * std::pow(l, 4.0 / 3.0);
   }
   // The kernel's prefactor 1 / (t sqrt(4 pi t)) must be a number (t above about 1e-206).
   if (!std::isfinite(1.0 / (t * std::sqrt(4.0 * kPi * t)))) {
@@ -163,12 +169,13 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
 // 2 L_{t/2} - L_t: the pattern of L_{t/2} (cut k sqrt(t/2)) is inside that of L_t.
 ContourOperator richardson(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options) {
   HeatLaplacianOptions plain = options;
-  plain.t = heat_time(contours.h, options);
+  plain.t = heat_time(contours.h, options, measures);
   ContourOperator op = assemble(contours, measures, plain);
   plain.t *= 0.5;
   const ContourOperator half = assemble(contours, measures, plain);
   op.L = 2.0 * half.L - op.L;
   if (options.stiffness) op.A = 2.0 * half.A - op.A;
+  op.length_scale = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
   return op;
 }
 }  // namespace
@@ -182,7 +189,7 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
 
 namespace {
 ContourOperator assemble(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options) {
-  const double t = heat_time(contours.h, options);
+  const double t = heat_time(contours.h, options, measures);
   check_positive("k", options.k);
   const double cut = options.k * std::sqrt(t);
   const Elements e = gather_elements(contours, measures, options.placement);
@@ -192,6 +199,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
   ContourOperator op;
   op.placement = options.placement;
   op.t = t;
+  op.length_scale = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
   op.cut = cut;
   op.positions = e.positions;
   op.mass = e.mu;

@@ -79,7 +79,8 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     throw Error(msg.str());
   }
   require_positive("MatrixFreeLaplacian: k", options.k);
-  t_ = heat_time(contours.h, options);
+  t_ = heat_time(contours.h, options, measures);
+  length_scale_ = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
   cut_ = options.k * std::sqrt(t_);
   delta_ = std::sqrt(4 * t_);
   // Boxes of width <= delta / 2: sources and targets within a quarter of delta of their box

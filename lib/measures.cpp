@@ -23,6 +23,8 @@ Measures measures(const ContourSet& contours, const LinelNormals& normals) {
     throw Error("measures: got normals for " + std::to_string(normals.size()) + " contours, expected " +
                 std::to_string(contours.contours.size()));
   Measures out;
+  out.length_scale = normals.length_scale;
+  out.normal_radius = normals.radius;
   out.contours.resize(contours.contours.size());
   for (std::size_t c = 0; c < contours.contours.size(); ++c) {
     const Contour& contour = contours.contours[c];

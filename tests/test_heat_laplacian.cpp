@@ -40,7 +40,7 @@ double relative_error(const Shape& shape, const ContourOperator& op, const TestF
 
 // SPEC §4 evaluated literally, O(N^2), dense.
 Eigen::MatrixXd brute_force(const ContourSet& cs, const Measures& m, const HeatLaplacianOptions& o) {
-  const double t = heat_time(cs.h, o), cut = o.k * std::sqrt(t);
+  const double t = heat_time(cs.h, o, m), cut = o.k * std::sqrt(t);
   std::vector<Eigen::Vector2d> pos;
   std::vector<double> mu, s;
   std::vector<std::size_t> contour;

@@ -92,6 +92,7 @@ TEST(MatrixFree, WindowEndSeriesAgreesForEveryWindowWidth) {
       HeatLaplacianOptions o;
       o.k = k;
       o.c_t = c_t;
+      o.length_scale = 1.0;  // t = c_t h^(2/3): the window widths this test was written for
       check(flower.contours, flower.mu, o, "accflower k " + std::to_string(k) + " c_t " + std::to_string(c_t));
     }
   // Three contours, with seams.

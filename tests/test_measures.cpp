@@ -62,12 +62,13 @@ TEST(Measures, NormalsOrthogonalOrOppositeToTheLinelAreClampedAndCounted) {
 }
 
 TEST(Measures, TooWideDiskBreaksTheNormalsInTheValleys) {
-  // SPEC §2: k_R = 2 makes the disk wider than the flower's valleys (radius of curvature 0.2);
+  // SPEC §2: R = 2 h^(1/3) (k_R = 2 with l = 1, the former default scale) makes the disk wider
+  // than the flower's valleys (radius of curvature 0.2);
   // the estimated normals there point the wrong way although they stay oriented along n_e.
   Flower flower;
   const DigitalSet set = digitize(flower, 0.01);
   const ContourSet cs = track_contours(set);
-  const LinelNormals wide = ii_normals(set, cs, {2.0}), exact = exact_normals(flower, cs);
+  const LinelNormals wide = ii_normals(set, cs, {2.0, 1.0}), exact = exact_normals(flower, cs);
   double worst = 0;
   for (Eigen::Index i = 0; i < wide[0].rows(); ++i) worst = std::max(worst, std::acos(std::min(1.0, wide[0].row(i).dot(exact[0].row(i)))));
   EXPECT_GT(worst, 1.5);

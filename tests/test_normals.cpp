@@ -46,7 +46,7 @@ TEST(Normals, RowMomentsEqualBruteForcePixelLoop) {
   const double h = 0.02;
   const DigitalSet set = digitize(flower, h);
   const ContourSet cs = track_contours(set);
-  const IINormalOptions opt{1.0};
+  const IINormalOptions opt{1.0, 1.0};  // R = h^(1/3): l = 1
   const LinelNormals fast = ii_normals(set, cs, opt);
   const double R = std::cbrt(h);
   double worst = 0;

@@ -29,7 +29,11 @@ ContourOperator noisy_circle(double h) {
   ContourSet main;
   main.h = h;
   main.contours.push_back(cs.contours[largest]);
-  return heat_laplacian(main, measures(main, ii_normals(set, main)));
+  // The parameters the tests below were written for: t = 0.03 h^(2/3), R = h^(1/3) (l = 1).
+  HeatLaplacianOptions o;
+  o.c_t = 0.03;
+  o.length_scale = 1.0;
+  return heat_laplacian(main, measures(main, ii_normals(set, main, {1.0, 1.0})), o);
 }
 }  // namespace
 

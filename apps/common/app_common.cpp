@@ -36,15 +36,20 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_flag("--invert", o.invert, "Images: foreground = value >= threshold * maxval (light objects)");
   app.add_flag("--largest", o.largest, "Images: keep the largest contour only");
   app.add_option("--min-linels", o.min_linels, "Images: drop contours with fewer linels")->capture_default_str();
-  app.add_option("--kR", o.k_R, "II radius constant: R = kR * h^(1/3)")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--length-scale", o.length_scale,
+                 "Length scale l of R and of the default t (0: measured on the shape's pixels, a robust small "
+                 "radius of curvature; 1: the former R = kR h^(1/3), t = ct h^(2/3))")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--normals", o.normals, "Normals for the measures: ii (estimated) or exact (from the curve)")
       ->check(CLI::IsMember({"ii", "exact"}))
       ->capture_default_str();
 }
 
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
-  app.add_option("--t", o.t, "Heat time t (0: c_t * h^(2/3))")->capture_default_str();
-  app.add_option("--ct", o.c_t, "Constant c_t of the default heat time")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--t", o.t, "Heat time t (0: ct h^(2/3) l^(4/3), l the length scale)")->capture_default_str();
+  app.add_option("--ct", o.c_t, "Constant of the default heat time t = ct h^(2/3) l^(4/3)")->check(kPositiveFinite)->capture_default_str();
   app.add_option("--k", o.k, "Kernel cut at k * sqrt(t)")->check(kPositiveFinite)->capture_default_str();
   const std::map<std::string, DistanceMode> distances{{"geodesic", DistanceMode::Geodesic},
                                                       {"euclidean", DistanceMode::Euclidean}};
@@ -121,12 +126,15 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
                  o.largest ? " (keeping the largest only)" : (" shorter than " + std::to_string(o.min_linels) + " linels").c_str());
   if (fe.contours.contours.empty()) throw Error("no contour left (all shorter than --min-linels)");
   progress.start("normals");
-  fe.normals = o.normals == "exact" ? exact_normals(*fe.shape, fe.contours)
-                                    : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R});
+  fe.normals = o.normals == "exact" ? exact_normals(*fe.shape, fe.contours, o.length_scale)
+                                    : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R, o.length_scale});
   fe.seconds_normals = progress.finish();
   progress.start("measures");
   fe.measures = measures(fe.contours, fe.normals);
   fe.seconds_measures = progress.finish();
+  if (!progress.quiet())
+    std::fprintf(stderr, "length scale l = %.6g%s, II radius R = %.6g\n", fe.measures.length_scale,
+                 o.length_scale > 0 ? " (given)" : " (measured)", fe.measures.normal_radius);
   if (fe.measures.clamped_linels > 0 && !progress.quiet())
     std::fprintf(stderr, "warning: %zu linels got mu = 0 (normal orthogonal to the linel); k_R may be too large\n",
                  fe.measures.clamped_linels);

@@ -16,7 +16,8 @@ struct FrontEndOptions {
   std::string shape = "flower";
   std::string image;            // a PBM/PGM/PNG file instead of a shape
   double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images
-  double k_R = 1.0;
+  double k_R = IINormalOptions{}.k_R;
+  double length_scale = 0.0;   // l of R and t; 0 = measured on the set (length_scale.hpp)
   std::string normals = "ii";   // "ii" (Integral Invariants) or "exact" (reference shapes only)
   double threshold = 0.5;       // images: foreground = value < threshold * maxval ...
   bool invert = false;          // ... or >= with --invert

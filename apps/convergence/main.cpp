@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   CLI::App app{"digilap-convergence: max error of digital Laplace-Beltrami operators vs h (paper's Fig. 5).\n"
                "Writes <out>/convergence.csv and <out>/convergence.svg."};
   std::string shape_name = "flower", function = "x2", sampling = "closest", out_dir = "out/convergence";
-  double k_R = 1.0;
+  double k_R = IINormalOptions{}.k_R, length_scale = 0.0;
   HeatLaplacianOptions base;
   std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
   std::vector<std::string> operators{"geodesic", "euclidean", "geodesic-exact", "dgtal", "richardson-euclidean",
@@ -29,8 +29,12 @@ int main(int argc, char** argv) {
   app.add_option("--function", function, "Test function: x2, xy, cos1 .. cos9 (cos(2 pi m s / P))")->capture_default_str();
   app.add_option("--h", steps, "Grid steps, coarse to fine")->capture_default_str()->expected(1, 100);
   app.add_option("--operators", operators, "Operators to compare: " + variants)->capture_default_str()->expected(1, 20);
-  app.add_option("--kR", k_R, "II radius constant: R = kR * h^(1/3)")->capture_default_str();
-  app.add_option("--ct", base.c_t, "Heat time t = ct * h^(2/3)")->capture_default_str();
+  app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->capture_default_str();
+  app.add_option("--ct", base.c_t, "Heat time t = ct h^(2/3) l^(4/3)")->capture_default_str();
+  app.add_option("--length-scale", length_scale,
+                 "Length scale l (0: measured at each h on the pixels; 1: the former t = ct h^(2/3), R = kR h^(1/3))")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--k", base.k, "Kernel cut at k * sqrt(t)")->capture_default_str();
   app.add_option("--sampling", sampling, "Where g is sampled: closest (orthogonal projection) or radial")
       ->check(CLI::IsMember({"closest", "radial"}))
@@ -47,6 +51,8 @@ int main(int argc, char** argv) {
     for (double h : o.steps)
       if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
     o.ii.k_R = k_R;
+    o.ii.length_scale = length_scale;
+    base.length_scale = length_scale;
     o.sampling = sampling == "closest" ? Sampling::ClosestPoint : Sampling::Radial;
     for (const auto& name : operators) o.variants.push_back(operator_variant(name, base));
     app::Progress progress(quiet);
@@ -54,13 +60,14 @@ int main(int argc, char** argv) {
     const ConvergenceResult r = convergence_sweep(*shape, f, o);
     progress.end_bar();
 
-    std::printf("# %s, g = %s, sampling %s, kR = %g, t = %g h^(2/3), k = %g\n", shape->name().c_str(), f.name.c_str(),
-                sampling.c_str(), k_R, base.c_t, base.k);
-    std::printf("| h | operator | N | nnz | t | max err | mean err | rel max err | length rel err | front end (s) | assembly (s) | eval (s) |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+    std::printf("# %s, g = %s, sampling %s, R = %g h^(1/3) l^(2/3), t = %g h^(2/3) l^(4/3), k = %g, l %s\n",
+                shape->name().c_str(), f.name.c_str(), sampling.c_str(), k_R, base.c_t, base.k,
+                length_scale > 0 ? "given" : "measured at each h");
+    std::printf("| h | operator | N | nnz | l | t | max err | mean err | rel max err | length rel err | front end (s) | assembly (s) | eval (s) |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (const auto& row : r.rows)
-      std::printf("| %g | %s | %ld | %ld | %.3g | %.4g | %.4g | %.3f%% | %.2e | %.3f | %.3f | %.3f |\n", row.h,
-                  row.variant.c_str(), static_cast<long>(row.elements), static_cast<long>(row.nonzeros), row.t,
+      std::printf("| %g | %s | %ld | %ld | %.3g | %.3g | %.4g | %.4g | %.3f%% | %.2e | %.3f | %.3f | %.3f |\n", row.h,
+                  row.variant.c_str(), static_cast<long>(row.elements), static_cast<long>(row.nonzeros), row.length_scale, row.t,
                   row.max_error, row.mean_error, 100 * row.relative_max_error,
                   row.length_estimate / row.length_exact - 1, row.seconds_front_end, row.seconds_assembly,
                   row.seconds_evaluation);

@@ -86,8 +86,9 @@ int main(int argc, char** argv) {
     for (const Spectrum& s : spectra) iterations += s.iterations, operations += s.operations;
 
     // Images have no exact curve: the exact column then uses the estimated length.
-    std::printf("# %s, h = %g, N = %ld, %zu contour(s), t = %.4g, %s: %d iterations, %d operator applications\n",
-                fe.name.c_str(), fe.contours.h, static_cast<long>(rows), contours, t,
+    std::printf("# %s, h = %g, N = %ld, %zu contour(s), l = %.4g, R = %.4g, t = %.4g, %s: %d iterations, %d operator applications\n",
+                fe.name.c_str(), fe.contours.h, static_cast<long>(rows), contours, fe.measures.length_scale,
+                fe.measures.normal_radius, t,
                 matrix_free ? "matrix-free" : "factorized", iterations, operations);
     if (!per_contour && contours > 1)
       std::printf("# several contours: their spectra mix (one 0 per contour); m and the exact columns assume contour 0 "

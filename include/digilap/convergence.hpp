@@ -44,6 +44,7 @@ struct ConvergenceRow {
   std::string variant;
   Eigen::Index elements = 0, nonzeros = 0;
   double t = 0;
+  double length_scale = 0;  // l of the measures (the default t and R follow from it)
   double max_error = 0, mean_error = 0, relative_max_error = 0;  // relative to max |Delta g|
   double length_estimate = 0, length_exact = 0;
   double seconds_front_end = 0;  // digitization + contours + normals + measures (shared by variants)

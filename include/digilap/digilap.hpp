@@ -8,6 +8,7 @@
 #include "digilap/ground_truth.hpp"
 #include "digilap/heat_laplacian.hpp"
 #include "digilap/io.hpp"
+#include "digilap/length_scale.hpp"
 #include "digilap/measures.hpp"
 #include "digilap/normals.hpp"
 #include "digilap/shapes.hpp"

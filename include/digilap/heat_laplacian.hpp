@@ -35,11 +35,14 @@ enum class DistanceMode { Geodesic, Euclidean };
 enum class Placement { Pointels, Linels };
 
 struct HeatLaplacianOptions {
-  /// Heat time. 0 (the default) means t = c_t * h^(2/3).
+  /// Heat time. 0 (the default) means t = c_t h^(2/3) l^(4/3), l the length scale.
   double t = 0.0;
-  /// Constant of the default heat time; like k_R it carries a length scale (SPEC §4).
-  /// 0.03 measured best for ambient functions on the reference shapes (docs/accuracy.md).
-  double c_t = 0.03;
+  /// Constant of the default heat time, unit-free (docs/accuracy.md: 0.1).
+  double c_t = 0.1;
+  /// The length scale l of the default heat time; 0 (the default) takes the measures' one
+  /// (what the normals measured on the set, length_scale.hpp). Give 1 for the former
+  /// t = c_t h^(2/3) in the set's units.
+  double length_scale = 0.0;
   /// Kernel cut at distance k * sqrt(t). k = 6 leaves under 1e-3 of the kernel's second moment
   /// outside (DGtal's K = 3 in its K sqrt(2t) convention is our k = 4.24).
   double k = 6.0;
@@ -70,6 +73,7 @@ struct ContourOperator {
   std::vector<double> contour_length;    ///< estimated length P of each contour
   Placement placement = Placement::Pointels;
   double t = 0.0;    ///< heat time used (0 for the DEC baselines)
+  double length_scale = 0.0;  ///< l behind the default t (0 when t was given)
   double cut = 0.0;  ///< kernel cut distance k sqrt(t) (0 for the DEC baselines)
 
   Eigen::Index rows() const { return L.rows(); }
@@ -85,13 +89,16 @@ double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffne
 /// over the sorted arclengths (geodesic) or a uniform grid of cell k sqrt(t) (Euclidean), the
 /// rows are counted, the compressed arrays allocated once and filled in parallel; the matrix is
 /// bitwise identical for any number of OpenMP threads.
-/// Throws digilap::Error for t, c_t or k not > 0 and finite, mismatched measures, or an
+/// Throws digilap::Error for t, c_t or k not > 0 and finite, no length scale for the default t
+/// (see heat_time), mismatched measures, or an
 /// estimated size above options.memory_limit_bytes.
 ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measures,
                                const HeatLaplacianOptions& options = {});
 
-/// The heat time actually used: options.t, or c_t * h^(2/3) when options.t == 0.
-double heat_time(double h, const HeatLaplacianOptions& options);
+/// The heat time actually used: options.t, or c_t h^(2/3) l^(4/3) when options.t == 0, with
+/// l = options.length_scale, or the measures' length scale when that is 0. Throws
+/// digilap::Error when neither gives l (measures built by hand: give t or length_scale).
+double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures);
 
 /// Which edge lengths the DEC baseline uses.
 enum class DecLengths { Naive, Corrected };

@@ -32,6 +32,8 @@ public:
   Eigen::Index rows() const { return mass_.size(); }
   Eigen::Index cols() const { return mass_.size(); }
   double t() const { return t_; }
+  /// The length scale l behind the default t (0 when t was given).
+  double length_scale() const { return length_scale_; }
   double cut() const { return cut_; }
   /// Hermite expansion order used for whole boxes.
   int order() const { return order_; }
@@ -97,7 +99,7 @@ private:
   Eigen::VectorXd mass_, s_, diagonal_, transform_of_mass_;
   Eigen::MatrixX2d positions_;
   std::vector<Eigen::Index> back_, fwd_;  // the geodesic window of each row
-  double t_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
+  double t_ = 0, length_scale_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
   int order_ = 0, band_order_ = 0;
   Eigen::Index reach_ = 0;
   std::vector<double> hermite_at_offset_;  // h_n(d box / delta), |d| <= reach_, n < 2 order_ - 1

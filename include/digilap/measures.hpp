@@ -27,6 +27,10 @@ struct Measures {
   /// Linels where <n, n_e> <= 0 (normal flipped or orthogonal to the linel): mu clamped to 0.
   /// Should be 0; a positive count says k_R is too large for the shape's curvature (SPEC §2).
   std::size_t clamped_linels = 0;
+  /// The length scale l and II radius R of the normals (length_scale.hpp): the operator's
+  /// default heat time is c_t h^(2/3) l^(4/3).
+  double length_scale = 0;
+  double normal_radius = 0;
   /// Total estimated length of all contours.
   double total_length() const;
 };
