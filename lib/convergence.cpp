@@ -85,7 +85,8 @@ ConvergenceResult convergence_sweep(const Shape& shape, const TestFunction& f, c
     const bool need_exact = std::any_of(o.variants.begin(), o.variants.end(), [](const auto& v) { return v.exact_normals; });
     Measures mu_ii, mu_exact;
     if (need_ii) mu_ii = measures(contours, ii_normals(set, contours, o.ii));
-    if (need_exact) mu_exact = measures(contours, exact_normals(shape, contours));
+    // The same l for both, so that they lead to the same t.
+    if (need_exact) mu_exact = measures(contours, exact_normals(shape, contours, need_ii ? mu_ii.length_scale : o.ii.length_scale));
     const double front_end = seconds_since(t0);
     // Exact values at the closest points, per placement (pointels and linels differ).
     std::map<int, std::pair<Eigen::VectorXd, Eigen::VectorXd>> truth;

@@ -36,7 +36,7 @@ LinelNormals ii_normals(const DigitalSet& set, const ContourSet& contours, const
   const double h = set.h();
   double l = options.length_scale;
   if (l != 0) require_positive("ii_normals: length_scale", l);
-  else l = length_scale(set, contours).length;
+  else l = length_scale(set, contours, {LengthScaleOptions{}.k_R, options.length_quantile}).length;
   const double R = options.k_R * std::cbrt(h) * std::pow(l, 2.0 / 3.0);
   const double rho = R / h;
   if (!set.empty()) {

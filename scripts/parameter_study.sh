@@ -12,20 +12,34 @@ run() {  # run <label> <args...>: one table row per operator
     while IFS= read -r line; do echo "| $label $line"; done
 }
 header() { echo; echo "$1"; echo; echo "| setting | operator | rel max err at h = 0.001 | slope (0.1 .. 0.001) | slope (finest 3) |"; echo "|---|---|---|---|---|"; }
+shapes=(flower accflower ellipse circle)
 
-ops=(geodesic euclidean richardson-geodesic richardson-euclidean)
-for fn in x2 xy cos1 cos3; do
-  header "### Flower, g = $fn: heat time constant c_t (k_R = 1, k = 6)"
-  for ct in 0.01 0.03 0.1 0.3; do run "c_t = $ct" --function "$fn" --ct "$ct" --operators "${ops[@]}"; done
+header "### Every reference shape at the defaults (c_t = 0.1, k_R = 2, k = 6, l measured)"
+for shape in "${shapes[@]}"; do
+  for fn in x2 cos1 cos3; do run "$shape, $fn" --shape "$shape" --function "$fn" --operators geodesic richardson-euclidean dgtal; done
 done
-header "### Flower, g = x2: II radius constant k_R (c_t = 0.03)"
-for kr in 0.5 1 1.5 2; do run "k_R = $kr" --function x2 --kR "$kr" --operators geodesic geodesic-exact richardson-euclidean; done
-header "### Flower, g = x2: kernel cut k (c_t = 0.03)"
-for k in 3 4.24 6 8; do run "k = $k" --function x2 --k "$k" --operators geodesic euclidean; done
-header "### All reference shapes at the defaults (c_t = 0.03, k_R = 1, k = 6)"
-for shape in circle ellipse flower accflower; do
-  for fn in x2 cos1; do run "$shape, $fn" --shape "$shape" --function "$fn" --operators geodesic richardson-euclidean dgtal dec-naive; done
+header "### The same with the former constants (t = 0.03 h^(2/3), R = h^(1/3): l = 1, c_t = 0.03, k_R = 1)"
+for shape in "${shapes[@]}"; do
+  for fn in x2 cos1 cos3; do run "$shape, $fn" --shape "$shape" --function "$fn" --operators geodesic --length-scale 1 --ct 0.03 --kR 1; done
 done
+header "### Heat time constant c_t (k_R = 2, l measured), g = x2"
+for shape in flower accflower ellipse circle; do
+  for ct in 0.03 0.07 0.1 0.15 0.3; do run "$shape, c_t = $ct" --shape "$shape" --ct "$ct" --operators geodesic; done
+done
+header "### Heat time constant c_t, intrinsic g = cos1 (k_R = 2, l measured)"
+for shape in flower accflower; do
+  for ct in 0.03 0.1 0.3 1; do run "$shape, c_t = $ct" --shape "$shape" --function cos1 --ct "$ct" --operators geodesic; done
+done
+header "### II radius constant k_R (c_t = 0.1, l measured), g = x2"
+for shape in flower accflower ellipse circle; do
+  for kr in 1 1.5 2 2.5 3; do run "$shape, k_R = $kr" --shape "$shape" --kR "$kr" --operators geodesic geodesic-exact; done
+done
+header "### Quantile of the radii of curvature that l is (c_t = 0.1, k_R = 2), g = x2"
+for shape in flower accflower ellipse circle; do
+  for q in 0.01 0.02 0.05 0.1; do run "$shape, quantile $q" --shape "$shape" --length-quantile "$q" --operators geodesic; done
+done
+header "### Kernel cut k (defaults otherwise), flower, g = x2"
+for k in 3 4.24 6 8; do run "k = $k" --k "$k" --operators geodesic euclidean; done
 header "### Sampling: closest point vs radial projection (flower, x2)"
 for s in closest radial; do run "$s" --function x2 --sampling "$s" --operators geodesic dgtal; done
 rm -rf "$out"

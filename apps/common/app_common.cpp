@@ -42,6 +42,9 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
                  "radius of curvature; 1: the former R = kR h^(1/3), t = ct h^(2/3))")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--length-quantile", o.length_quantile, "Which quantile of the radii of curvature a measured l is")
+      ->check(CLI::Range(1e-6, 1.0 - 1e-6))
+      ->capture_default_str();
   app.add_option("--normals", o.normals, "Normals for the measures: ii (estimated) or exact (from the curve)")
       ->check(CLI::IsMember({"ii", "exact"}))
       ->capture_default_str();
@@ -127,7 +130,7 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   if (fe.contours.contours.empty()) throw Error("no contour left (all shorter than --min-linels)");
   progress.start("normals");
   fe.normals = o.normals == "exact" ? exact_normals(*fe.shape, fe.contours, o.length_scale)
-                                    : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R, o.length_scale});
+                                    : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R, o.length_scale, o.length_quantile});
   fe.seconds_normals = progress.finish();
   progress.start("measures");
   fe.measures = measures(fe.contours, fe.normals);

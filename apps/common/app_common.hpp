@@ -18,6 +18,7 @@ struct FrontEndOptions {
   double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images
   double k_R = IINormalOptions{}.k_R;
   double length_scale = 0.0;   // l of R and t; 0 = measured on the set (length_scale.hpp)
+  double length_quantile = IINormalOptions{}.length_quantile;
   std::string normals = "ii";   // "ii" (Integral Invariants) or "exact" (reference shapes only)
   double threshold = 0.5;       // images: foreground = value < threshold * maxval ...
   bool invert = false;          // ... or >= with --invert

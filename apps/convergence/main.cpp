@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
   CLI::App app{"digilap-convergence: max error of digital Laplace-Beltrami operators vs h (paper's Fig. 5).\n"
                "Writes <out>/convergence.csv and <out>/convergence.svg."};
   std::string shape_name = "flower", function = "x2", sampling = "closest", out_dir = "out/convergence";
-  double k_R = IINormalOptions{}.k_R, length_scale = 0.0;
+  double k_R = IINormalOptions{}.k_R, length_scale = 0.0, length_quantile = IINormalOptions{}.length_quantile;
   HeatLaplacianOptions base;
   std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
   std::vector<std::string> operators{"geodesic", "euclidean", "geodesic-exact", "dgtal", "richardson-euclidean",
@@ -35,6 +35,9 @@ int main(int argc, char** argv) {
                  "Length scale l (0: measured at each h on the pixels; 1: the former t = ct h^(2/3), R = kR h^(1/3))")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  app.add_option("--length-quantile", length_quantile, "Which quantile of the radii of curvature a measured l is")
+      ->check(CLI::Range(1e-6, 1.0 - 1e-6))
+      ->capture_default_str();
   app.add_option("--k", base.k, "Kernel cut at k * sqrt(t)")->capture_default_str();
   app.add_option("--sampling", sampling, "Where g is sampled: closest (orthogonal projection) or radial")
       ->check(CLI::IsMember({"closest", "radial"}))
@@ -52,6 +55,7 @@ int main(int argc, char** argv) {
       if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
     o.ii.k_R = k_R;
     o.ii.length_scale = length_scale;
+    o.ii.length_quantile = length_quantile;
     base.length_scale = length_scale;
     o.sampling = sampling == "closest" ? Sampling::ClosestPoint : Sampling::Radial;
     for (const auto& name : operators) o.variants.push_back(operator_variant(name, base));

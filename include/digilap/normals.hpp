@@ -28,6 +28,8 @@ struct IINormalOptions {
   /// l; 0 (the default) measures it on the set with length_scale(). Give 1 to get the former
   /// R = k_R h^(1/3) in the set's units.
   double length_scale = 0.0;
+  /// Which quantile of the radii of curvature a measured l is (LengthScaleOptions::quantile).
+  double length_quantile = 0.02;
 };
 
 /// Integral Invariant covariance normals [LCL14]: for each linel, the eigenvector of the
