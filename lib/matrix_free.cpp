@@ -665,14 +665,20 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   detail::check_eigen_request(op.mass(), o.count);
   // Contour by contour (the operator is block-diagonal by contour), then merged: repeated
   // eigenvalues of identical contours are all counted (spectrum_parts.hpp).
-  return detail::merge_parts(contour_parts(op, o.count, o), op.rows(), o.count);
+  Spectrum s = detail::merge_parts(contour_parts(op, o.count, o), op.rows(), o.count);
+  s.laplace_beltrami = laplace_beltrami_eigenvalues(s.eigenvalues, op.t(), &s.undefined_estimates);
+  return s;
 }
 
 std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
   if (o.count < 1) throw Error("smallest_eigenpairs_per_contour: count must be >= 1, got " + std::to_string(o.count));
   detail::check_eigen_request(op.mass(), 1);  // masses > 0
   std::vector<Spectrum> spectra;
-  for (detail::SpectrumPart& part : contour_parts(op, o.count, o)) spectra.push_back(std::move(part.spectrum));
+  for (detail::SpectrumPart& part : contour_parts(op, o.count, o)) {
+    spectra.push_back(std::move(part.spectrum));
+    spectra.back().laplace_beltrami =
+        laplace_beltrami_eigenvalues(spectra.back().eigenvalues, op.t(), &spectra.back().undefined_estimates);
+  }
   return spectra;
 }
 

@@ -9,6 +9,7 @@
 #include <Spectra/SymGEigsShiftSolver.h>
 
 #include <cmath>
+#include <limits>
 #include <exception>
 #include <sstream>
 
@@ -78,6 +79,23 @@ private:
 };
 
 }  // namespace
+
+Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined) {
+  require_positive("laplace_beltrami_eigenvalues: t", t);
+  Eigen::VectorXd mu(eigenvalues.size());
+  int count = 0;
+  for (Eigen::Index k = 0; k < eigenvalues.size(); ++k) {
+    const double x = eigenvalues[k] * t;
+    if (x >= 1) {
+      mu[k] = std::numeric_limits<double>::infinity();
+      ++count;
+    } else {
+      mu[k] = -std::log1p(-x) / t;  // log1p: exact for the small lambda t of the low modes
+    }
+  }
+  if (undefined) *undefined = count;
+  return mu;
+}
 
 double heat_kernel_eigenvalue(int m, double P, double t) {
   const double w = 2 * kPi * m / P, w2 = w * w;
@@ -248,12 +266,17 @@ std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op,
       }
     const Eigen::Index n = op.row_offset[c + 1] - op.row_offset[c];
     spectra.push_back(detail::merge_parts(of_contour, n, static_cast<int>(std::min<Eigen::Index>(o.count, n))));
+    if (op.t > 0)
+      spectra.back().laplace_beltrami =
+          laplace_beltrami_eigenvalues(spectra.back().eigenvalues, op.t, &spectra.back().undefined_estimates);
   }
   return spectra;
 }
 
 Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options) {
-  return smallest_eigenpairs(op.A, op.mass, options);
+  Spectrum s = smallest_eigenpairs(op.A, op.mass, options);
+  if (op.t > 0) s.laplace_beltrami = laplace_beltrami_eigenvalues(s.eigenvalues, op.t, &s.undefined_estimates);
+  return s;
 }
 
 }  // namespace digilap

@@ -147,10 +147,12 @@ TEST(Image, HorseSpectrumRatiosAreSquares) {
   const FilteredContours main = filter_contours(track_contours(set), {0, true});
   const ContourOperator op = heat_laplacian(main.contours, measures(main.contours, ii_normals(set, main.contours)));
   const Spectrum s = smallest_eigenpairs(op, {11});
-  // SPEC §5: on any simple closed contour, lambda_{2m-1} ~ lambda_{2m} ~ m^2 lambda_1.
+  // SPEC §5: on any simple closed contour, lambda_{2m-1} ~ lambda_{2m} ~ m^2 lambda_1. Issue
+  // 14 asks 1% at the defaults (the heat kernel's bias omega^2 t / 2 is below 1e-4 here; the
+  // former t gave 24.75 for m = 5, 1% low).
   for (int m = 1; m <= 5; ++m) {
-    EXPECT_NEAR(s.eigenvalues[2 * m] / s.eigenvalues[1], m * m, 0.05 * m * m) << "m = " << m;
-    EXPECT_NEAR(s.eigenvalues[2 * m - 1] / s.eigenvalues[1], m * m, 0.05 * m * m) << "m = " << m;
+    EXPECT_NEAR(s.eigenvalues[2 * m] / s.eigenvalues[1], m * m, 0.01 * m * m) << "m = " << m;
+    EXPECT_NEAR(s.eigenvalues[2 * m - 1] / s.eigenvalues[1], m * m, 0.01 * m * m) << "m = " << m;
   }
 }
 

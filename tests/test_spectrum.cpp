@@ -311,3 +311,57 @@ TEST(Spectrum, BitwiseIdenticalForOneAndTwoThreads) {
         << (one[path].eigenvectors - two[path].eigenvectors).cwiseAbs().maxCoeff();
   }
 }
+
+// --- Laplace-Beltrami eigenvalues (issue 12, item 4) -------------------------------------------
+
+// The ellipse a = 2, b = 1 at h = 0.002: the raw eigenvalues carry the heat kernel's bias
+// (1 - exp(-omega^2 t)) / t, about 0.35% low for m = 5 at the defaults; -ln(1 - lambda t) / t
+// undoes it: within 0.1% of (2 pi m / P)^2 with the exact length P (measured: 1.5e-5).
+TEST(Spectrum, LaplaceBeltramiEstimatesUndoTheHeatKernelBias) {
+  Ellipse ellipse(2, 1);
+  const ContourOperator op = operator_of(ellipse, 0.002);
+  const Spectrum s = smallest_eigenpairs(op, {11});
+  ASSERT_EQ(s.laplace_beltrami.size(), 11);
+  EXPECT_EQ(s.undefined_estimates, 0);
+  for (int m = 1; m <= 5; ++m) {
+    const double exact = heat_kernel_eigenvalue(m, ellipse.length(), 0.0);
+    for (int k : {2 * m - 1, 2 * m}) EXPECT_NEAR(s.laplace_beltrami[k], exact, 1e-3 * exact) << "m = " << m;
+  }
+  EXPECT_GT(std::abs(s.eigenvalues[10] / heat_kernel_eigenvalue(5, ellipse.length(), 0.0) - 1), 2e-3);
+}
+
+// A one-pixel-wide line (its contour goes along one side and back along the other) with a
+// heat time that makes the bias large: the raw lambda for m = 5 is more than 5% below
+// (2 pi m / P)^2, the estimate within 0.5% (P the estimated length: an image has no other).
+TEST(Spectrum, LaplaceBeltramiEstimatesOnALineImage) {
+  std::vector<Eigen::Vector2i> pixels;
+  for (int i = 0; i < 200; ++i) pixels.emplace_back(i, 0);
+  const DigitalSet set = DigitalSet::from_pixels(1.0 / 200, pixels);
+  const ContourSet cs = track_contours(set);
+  HeatLaplacianOptions o;
+  o.t = 5e-4;
+  const ContourOperator op = heat_laplacian(cs, measures(cs, ii_normals(set, cs)), o);
+  const Spectrum s = smallest_eigenpairs(op, {11});
+  const double P = op.contour_length[0];
+  for (int m = 1; m <= 5; ++m) {
+    const double exact = heat_kernel_eigenvalue(m, P, 0.0);
+    for (int k : {2 * m - 1, 2 * m}) EXPECT_NEAR(s.laplace_beltrami[k], exact, 5e-3 * exact) << "m = " << m;
+  }
+  EXPECT_LT(s.eigenvalues[10], 0.95 * heat_kernel_eigenvalue(5, P, 0.0));
+  std::printf("line: m = 5, raw %.4f, estimate %.4f, (2 pi m / P)^2 = %.4f\n", s.eigenvalues[10], s.laplace_beltrami[10],
+              heat_kernel_eigenvalue(5, P, 0.0));
+}
+
+// Where lambda t >= 1 there is no estimate: +infinity and a count, never NaN.
+TEST(Spectrum, LaplaceBeltramiEstimateIsUndefinedAboveOneOverT) {
+  int undefined = -1;
+  const Eigen::VectorXd mu = laplace_beltrami_eigenvalues(Eigen::Vector3d(0.5, 1.0, 2.0), 1.0, &undefined);
+  EXPECT_DOUBLE_EQ(mu[0], std::log(2.0));
+  EXPECT_TRUE(std::isinf(mu[1]) && mu[1] > 0);
+  EXPECT_TRUE(std::isinf(mu[2]) && mu[2] > 0);
+  EXPECT_EQ(undefined, 2);
+  EXPECT_THROW(laplace_beltrami_eigenvalues(mu, 0.0), Error);
+  const Spectrum s = smallest_eigenpairs(operator_of(Circle(), 0.1), {75});
+  EXPECT_GT(s.undefined_estimates, 0);
+  for (Eigen::Index k = 0; k < s.laplace_beltrami.size(); ++k) EXPECT_FALSE(std::isnan(s.laplace_beltrami[k]));
+}

@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
                       svg_path = out_dir + "/eigenvectors.svg";
     std::ofstream values(values_path);
     if (!values) throw Error("cannot write '" + values_path + "'");
-    values << (per_contour ? "contour," : "") << "k,m,lambda,exact,heat_kernel_formula\n";
+    values << (per_contour ? "contour," : "") << "k,m,lambda,laplace_beltrami,exact,heat_kernel_formula\n";
     values.precision(15);
     for (std::size_t part = 0; part < spectra.size(); ++part) {
       const Spectrum& s = spectra[part];
@@ -109,23 +109,37 @@ int main(int argc, char** argv) {
                     static_cast<long>(row_offset[part + 1] - row_offset[part]), P, P_est);
       else
         std::printf("# P = %.8g (estimated %.8g)\n", P, P_est);
-      std::printf("| k | m | lambda_k | (2 pi m/P)^2 | rel. diff | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | lambda_k/lambda_1 (m^2) | pair split |\n");
-      std::printf("|---|---|---|---|---|---|---|---|---|\n");
+      std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t: their Laplace-Beltrami estimates "
+                  "(the heat kernel's bias undone); the ratio column uses mu\n");
+      std::printf("| k | m | lambda_k | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | mu_k | (2 pi m/P)^2 | rel. diff | mu_k/mu_1 (m^2) | pair split |\n");
+      std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
       for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
         const int m = static_cast<int>((k + 1) / 2);
         const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t);
-        const double lambda = s.eigenvalues[k];
+        const double lambda = s.eigenvalues[k], mu = s.laplace_beltrami[k];
         const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
-        char split[32] = "";
+        char split[32] = "", mu_text[48], mu_diff[32] = "", ratio[48] = "";
         if (second_of_pair) std::snprintf(split, sizeof split, "%.1e", std::abs(lambda - s.eigenvalues[k - 1]) / lambda);
+        if (std::isinf(mu)) {
+          std::snprintf(mu_text, sizeof mu_text, "undefined (lambda t >= 1)");
+        } else {
+          std::snprintf(mu_text, sizeof mu_text, m == 0 ? "%.3e" : "%.8f", mu);
+          if (m > 0) {
+            std::snprintf(mu_diff, sizeof mu_diff, "%.2e", mu / exact - 1);
+            std::snprintf(ratio, sizeof ratio, "%.4f (%d)", mu / s.laplace_beltrami[1], m * m);
+          }
+        }
         if (m == 0)
-          std::printf("| %ld | 0 | %.3e | 0 | | 0 | | | |\n", static_cast<long>(k), lambda);
+          std::printf("| %ld | 0 | %.3e | 0 | | %s | 0 | | | |\n", static_cast<long>(k), lambda, mu_text);
         else
-          std::printf("| %ld | %d | %.8f | %.8f | %.2e | %.8f | %.2e | %.4f (%d) | %s |\n", static_cast<long>(k), m, lambda, exact,
-                      lambda / exact - 1, formula, lambda / formula - 1, lambda / s.eigenvalues[1], m * m, split);
+          std::printf("| %ld | %d | %.8f | %.8f | %.2e | %s | %.8f | %s | %s | %s |\n", static_cast<long>(k), m, lambda,
+                      formula, lambda / formula - 1, mu_text, exact, mu_diff, ratio, split);
         if (per_contour) values << part << ',';
-        values << k << ',' << m << ',' << lambda << ',' << exact << ',' << formula << '\n';
+        values << k << ',' << m << ',' << lambda << ',' << mu << ',' << exact << ',' << formula << '\n';
       }
+      if (s.undefined_estimates > 0)
+        std::printf("%d eigenvalue(s) with lambda t >= 1 have no Laplace-Beltrami estimate (the heat-kernel operator's "
+                    "spectrum stops at 1/t = %.4g): use a smaller t\n", s.undefined_estimates, 1 / t);
     }
     // Eigenvector k on every row: from the joint spectrum, or each contour's own k-th vector.
     Eigen::Index columns = 0;

@@ -39,7 +39,12 @@ struct SpectrumOptions {
 };
 
 struct Spectrum {
-  Eigen::VectorXd eigenvalues;   ///< ascending
+  Eigen::VectorXd eigenvalues;   ///< ascending, the operator's own (raw) eigenvalues lambda
+  /// Laplace-Beltrami estimates -ln(1 - lambda t) / t (see laplace_beltrami_eigenvalues()),
+  /// filled by the solvers that know t (from an operator); +infinity where lambda t >= 1.
+  Eigen::VectorXd laplace_beltrami;
+  /// How many eigenvalues have lambda t >= 1, where no estimate exists (0 when all are defined).
+  int undefined_estimates = 0;
   Eigen::MatrixXd eigenvectors;  ///< one M-normalized column per eigenvalue
   int iterations = 0;            ///< Lanczos restarts used
   int operations = 0;            ///< applications of the shift-inverted operator
@@ -60,6 +65,14 @@ Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& o
 /// parallel. Throws digilap::Error when contours interact (Euclidean distance), or when a mass
 /// is not > 0.
 std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& options = {});
+
+/// Undoes the heat kernel's bias on eigenvalues: the heat-kernel operator with time t has
+/// eigenvalues lambda = (1 - exp(-mu t)) / t where the Laplace-Beltrami operator has mu (SPEC
+/// §5; exact on a closed curve's spectrum, to 2e-4 on digital contours), so mu = -ln(1 - lambda
+/// t) / t. Undefined for lambda t >= 1 (the operator's spectrum stops at 1 / t): those entries
+/// are +infinity, and `undefined` (if given) receives their number. Throws digilap::Error for t
+/// not > 0 and finite.
+Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined = nullptr);
 
 /// The heat-kernel operator's eigenvalues on a closed curve of length P with heat time t:
 /// (1 - exp(-omega^2 t)) / t, omega = 2 pi m / P (SPEC §5). With t = 0: omega^2 exactly.
