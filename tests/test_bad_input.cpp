@@ -92,6 +92,8 @@ const std::vector<Case> kCases = {
     {"matrix_free_tiny_t_huge_k", "spectrum", "--shape circle --h 0.1 --count 3 --t 1e-16 --k 1e9 --matrix-free --memory-limit 1e6 --out {dir}/mftiny", "", true, "matrix-free: "},
     {"t_prefactor_overflows", "spectrum", "--shape circle --h 0.1 --t 1e-300 --matrix-free", "", false, "is too small: the kernel's prefactor"},
     {"spectrum_above_one_over_t", "spectrum", "--shape circle --h 0.1 --count 75 --out {dir}/above", "", true, "have no Laplace-Beltrami estimate"},
+    {"unknown_format", "operator", "--shape circle --h 0.1 --format hdf5", "", false, "--format"},
+    {"npz_export", "operator", "--shape circle --h 0.1 --format npz --out {dir}/npz", "", true, "L.npz"},
     {"matrix_free_euclidean", "spectrum", "--matrix-free --distance euclidean", "", false, "only the geodesic distance"},
     {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
     {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},

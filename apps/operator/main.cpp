@@ -2,17 +2,27 @@
 #include "../common/app_common.hpp"
 
 #include <cstdio>
+#include <map>
 
 using namespace digilap;
 
 int main(int argc, char** argv) {
   CLI::App app{"digilap-operator: the heat-kernel Laplace-Beltrami operator L_h of a digitized shape.\n"
-               "Writes L.mtx, A.mtx (= M L, symmetric), M.mtx (masses) and elements.csv."};
+               "Writes L.mtx, A.mtx (= M L, symmetric), M.mtx (masses) and elements.csv; with --format npz,\n"
+               "L.npz, A.npz, M.npz (scipy.sparse.load_npz) and elements.npz (numpy.load)."};
   app::FrontEndOptions fe_options;
   HeatLaplacianOptions op_options;
   std::string out_dir = "out/operator";
   bool quiet = false;
+  FileFormat format = FileFormat::MatrixMarket;
   app::add_front_end_options(app, fe_options);
+  app.add_option("--format", format, "mtx (Matrix Market text) or npz (binary, for SciPy and NumPy)")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, FileFormat>{{"mtx", FileFormat::MatrixMarket},
+                                                                          {"npz", FileFormat::Npz}},
+                                          CLI::ignore_case)
+                      .description(""))
+      ->type_name("{mtx,npz}")
+      ->default_str("mtx");
   app::add_operator_options(app, op_options);
   app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
@@ -22,7 +32,7 @@ int main(int argc, char** argv) {
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     const ContourOperator op = app::build_operator(fe, op_options, progress);
     progress.start("write");
-    const auto paths = save_operator(op, out_dir);
+    const auto paths = save_operator(op, out_dir, "", format);
     progress.finish();
     std::printf("shape %s, h = %g: %zu contour(s), N = %ld elements, nnz(L) = %ld\n", fe.name.c_str(),
                 fe.contours.h, fe.contours.contours.size(), static_cast<long>(op.rows()),

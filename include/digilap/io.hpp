@@ -8,8 +8,20 @@
 namespace digilap {
 
 /// Writes a sparse matrix in Matrix Market coordinate format (readable by SciPy's mmread,
-/// MATLAB's mmread, Julia's MatrixMarket). Throws digilap::Error if the file cannot be written.
+/// MATLAB's mmread, Julia's MatrixMarket), every value in the shortest text that reads back
+/// to the same double; rows formatted in parallel. Throws digilap::Error if the file cannot
+/// be written.
 void save_matrix_market(const SparseMatrix& matrix, const std::string& path);
+
+/// Writes a sparse matrix as scipy.sparse.save_npz does for a csr_matrix (an uncompressed
+/// .npz of data, indices, indptr, format and shape): scipy.sparse.load_npz(path) reads it,
+/// bit for bit. Members must stay below 4 GiB (no ZIP64); digilap::Error otherwise.
+void save_npz(const SparseMatrix& matrix, const std::string& path);
+
+/// The element table as an .npz: contour, index (int64), positions (N x 2), mu, s (float64).
+void save_elements_npz(const ContourOperator& op, const std::string& path);
+
+enum class FileFormat { MatrixMarket, Npz };
 
 /// Reads a Matrix Market coordinate file, real or integer, general or symmetric (a symmetric
 /// file holds the lower triangle, mirrored here; duplicate entries are summed, as SciPy does).
@@ -21,9 +33,10 @@ SparseMatrix load_matrix_market(const std::string& path);
 /// (element position, measure and arclength coordinate), with a header line.
 void save_elements_csv(const ContourOperator& op, const std::string& path);
 
-/// Writes L.mtx, A.mtx, M.mtx and elements.csv into `directory` (created if missing), with
-/// an optional file-name prefix. Returns the paths written, in that order.
+/// Writes L.mtx, A.mtx, M.mtx and elements.csv (or L.npz, A.npz, M.npz and elements.npz) into
+/// `directory` (created if missing), with an optional file-name prefix; A is left out when
+/// the operator was assembled without it. Returns the paths written, in that order.
 std::vector<std::string> save_operator(const ContourOperator& op, const std::string& directory,
-                                       const std::string& prefix = "");
+                                       const std::string& prefix = "", FileFormat format = FileFormat::MatrixMarket);
 
 }  // namespace digilap
