@@ -6,6 +6,9 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <charconv>
+#include <map>
+#include <set>
 #include <sstream>
 
 namespace digilap {
@@ -344,14 +347,82 @@ double Ellipse::local_polar_parameter(double phi) const {
 
 std::vector<std::string> shape_names() { return {"circle", "ellipse", "flower", "accflower"}; }
 
-std::unique_ptr<Shape> make_shape(const std::string& name) {
-  if (name == "circle") return std::make_unique<Circle>();
-  if (name == "ellipse") return std::make_unique<Ellipse>();
-  if (name == "flower") return std::make_unique<Flower>();
-  if (name == "accflower") return std::make_unique<AccFlower>();
-  std::string known;
-  for (const auto& n : shape_names()) known += (known.empty() ? "" : ", ") + n;
-  throw Error("unknown shape '" + name + "' (known shapes: " + known + ")");
+namespace {
+
+struct ShapeKind {
+  const char* name;
+  std::vector<std::pair<const char*, double>> keys;  // with their defaults (SPEC §6)
+};
+const std::vector<ShapeKind>& shape_kinds() {
+  static const std::vector<ShapeKind> kinds = {
+      {"circle", {{"r", 1.0}}},
+      {"ellipse", {{"a", 2.0}, {"b", 1.0}}},
+      {"flower", {{"R", 2.0}, {"v", 0.5}, {"k", 5}, {"phase", 0.0}}},
+      {"accflower", {{"R", 2.0}, {"v", 0.25}, {"k", 2}}},
+  };
+  return kinds;
+}
+
+double parse_number(const std::string& shape, const std::string& key, const std::string& text) {
+  double v = 0;
+  const char* first = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
+  const auto [end, ec] = std::from_chars(first, text.data() + text.size(), v);
+  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
+    throw Error(shape + ": " + key + " = '" + text + "' is not a finite number");
+  return v;
+}
+
+}  // namespace
+
+std::unique_ptr<Shape> make_shape(const std::string& spec) {
+  const std::size_t colon = spec.find(':');
+  const std::string name = spec.substr(0, colon);
+  const auto kind = std::find_if(shape_kinds().begin(), shape_kinds().end(), [&](const ShapeKind& k) { return name == k.name; });
+  if (kind == shape_kinds().end()) {
+    std::string known;
+    for (const auto& n : shape_names()) known += (known.empty() ? "" : ", ") + n;
+    throw Error("unknown shape '" + name + "' (known shapes: " + known + ")");
+  }
+  std::map<std::string, double> value;
+  std::string keys;
+  for (const auto& [key, fallback] : kind->keys) value[key] = fallback, keys += (keys.empty() ? "" : ", ") + std::string(key);
+  std::set<std::string> given;
+  if (colon != std::string::npos) {
+    std::stringstream list(spec.substr(colon + 1));
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      const std::size_t eq = item.find('=');
+      const std::string key = item.substr(0, eq);
+      if (eq == std::string::npos || !value.count(key))
+        throw Error(name + ": unknown parameter '" + key + "' (" + name + " takes " + keys + ", as key=value separated by commas)");
+      if (!given.insert(key).second) throw Error(name + ": parameter '" + key + "' is given twice");
+      value[key] = parse_number(name, key, item.substr(eq + 1));
+    }
+  }
+  auto whole = [&](const char* key) {
+    const double v = value[key];
+    if (!(v >= 1 && v <= 1e6 && v == std::floor(v)))
+      throw Error(name + ": " + key + " must be a whole number from 1 to 1000000, got " + std::to_string(v));
+    return static_cast<int>(v);
+  };
+  if (name == "circle") return std::make_unique<Circle>(value["r"]);
+  if (name == "ellipse") return std::make_unique<Ellipse>(value["a"], value["b"]);
+  if (name == "flower") return std::make_unique<Flower>(value["R"], value["v"], whole("k"), value["phase"]);
+  return std::make_unique<AccFlower>(value["R"], value["v"], whole("k"));
+}
+
+std::string shape_syntax() {
+  std::string text;
+  for (const ShapeKind& kind : shape_kinds()) {
+    text += std::string(kind.name) + ":";
+    for (std::size_t i = 0; i < kind.keys.size(); ++i) {
+      std::ostringstream v;
+      v << kind.keys[i].second;
+      text += std::string(i ? "," : "") + kind.keys[i].first + "=" + v.str();
+    }
+    text += "\n";
+  }
+  return text;
 }
 
 }  // namespace digilap

@@ -22,6 +22,11 @@ header "### The same with the former constants (t = 0.03 h^(2/3), R = h^(1/3): l
 for shape in "${shapes[@]}"; do
   for fn in x2 cos1 cos3; do run "$shape, $fn" --shape "$shape" --function "$fn" --operators geodesic --length-scale 1 --ct 0.03 --kR 1; done
 done
+header "### Shapes the tests do not use, at the defaults (parameters and pose from the command line)"
+for spec in "flower:R=1.5,v=0.3,k=4 --rotate 30" "flower:R=2,v=0.6,k=7" "ellipse:a=3,b=0.8 --rotate 15" "accflower:R=2,v=0.3,k=3" "circle:r=5 --centre 0.3,-0.1"; do
+  # shellcheck disable=SC2086
+  for fn in x2 cos1; do run "${spec%% *}, $fn" --shape $spec --function "$fn" --operators geodesic; done
+done
 header "### Heat time constant c_t (k_R = 2, l measured), g = x2"
 for shape in flower accflower ellipse circle; do
   for ct in 0.03 0.07 0.1 0.15 0.3; do run "$shape, c_t = $ct" --shape "$shape" --ct "$ct" --operators geodesic; done

@@ -163,3 +163,17 @@ TEST(Shapes, BadParametersAreRefusedClearly) {
     EXPECT_NE(std::string(e.what()).find("accflower"), std::string::npos);
   }
 }
+
+// Shapes with their own parameters, as the apps take them (issue 12): "name:key=value,...".
+TEST(Shapes, ParametersFromText) {
+  const auto flower = make_shape("flower:R=1.5,v=0.3,k=4,phase=0.2");
+  const Flower expected(1.5, 0.3, 4, 0.2);
+  EXPECT_NEAR(flower->length(), expected.length(), 1e-12 * expected.length());
+  EXPECT_EQ(make_shape("circle:r=2.5")->length(), Circle(2.5).length());
+  EXPECT_NEAR(make_shape("ellipse:b=0.5")->length(), Ellipse(2.0, 0.5).length(), 1e-12);  // a keeps its default
+  EXPECT_EQ(make_shape("accflower:k=3")->length(), AccFlower(2.0, 0.25, 3).length());
+  for (const char* bad : {"flower:q=1", "flower:R", "circle:r=", "circle:r=1x", "circle:r=nan", "flower:k=0", "flower:k=1.5",
+                          "ellipse:a=1,a=2", "circle:r=-1", "flower:R=1,v=1", "hexagon"})
+    EXPECT_THROW(make_shape(bad), Error) << bad;
+  EXPECT_NE(shape_syntax().find("flower:R=2,v=0.5,k=5,phase=0"), std::string::npos) << shape_syntax();
+}

@@ -25,9 +25,13 @@ const CLI::Validator kPositiveFinite(
 }  // namespace
 
 void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
-  std::string names;
-  for (const auto& n : shape_names()) names += (names.empty() ? "" : ", ") + n;
-  app.add_option("--shape", o.shape, "Reference shape: " + names)->capture_default_str();
+  app.add_option("--shape", o.shape,
+                 "Reference shape, with its own parameters after a colon (keys not given keep these defaults):\n" +
+                     shape_syntax() + "e.g. --shape flower:R=1.5,v=0.3,k=4")
+      ->capture_default_str();
+  app.add_option("--rotate", o.rotate_degrees, "Rotate the shape by this angle (degrees, counter-clockwise)")
+      ->capture_default_str();
+  app.add_option("--centre", o.centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--image", o.image, "Binary image instead of a shape: PBM, PGM (8/16 bit) or PNG");
   if (with_h)
     app.add_option("--h", o.h, "Grid step h (default: 0.01 for shapes, 1/max(width, height) for images)")
@@ -99,6 +103,10 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   ContourFilter filter;
   if (o.image.empty()) {
     fe.shape = make_shape(o.shape);
+    if (!std::isfinite(o.rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
+    if (o.rotate_degrees != 0 || !o.centre.empty())
+      fe.shape->set_pose(o.centre.empty() ? Eigen::Vector2d::Zero() : Eigen::Vector2d(o.centre[0], o.centre[1]),
+                         o.rotate_degrees * 3.14159265358979323846 / 180);
     fe.name = fe.shape->name();
     fe.exact_length = fe.shape->length();
     const double h = o.h == 0 ? 0.01 : o.h;

@@ -15,6 +15,8 @@ namespace digilap::app {
 struct FrontEndOptions {
   std::string shape = "flower";
   std::string image;            // a PBM/PGM/PNG file instead of a shape
+  double rotate_degrees = 0.0;  // pose of the shape
+  std::vector<double> centre;   // empty, or x, y
   double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images
   double k_R = IINormalOptions{}.k_R;
   double length_scale = 0.0;   // l of R and t; 0 = measured on the set (length_scale.hpp)

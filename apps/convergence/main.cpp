@@ -21,11 +21,16 @@ int main(int argc, char** argv) {
   std::vector<std::string> operators{"geodesic", "euclidean", "geodesic-exact", "dgtal", "richardson-euclidean",
                                      "dec-naive", "dec-mu"};
   bool quiet = false;
-  std::string names;
-  for (const auto& n : shape_names()) names += (names.empty() ? "" : ", ") + n;
   std::string variants;
   for (const auto& n : operator_variant_names()) variants += (variants.empty() ? "" : ", ") + n;
-  app.add_option("--shape", shape_name, "Reference shape: " + names)->capture_default_str();
+  app.add_option("--shape", shape_name,
+                 "Reference shape, with its own parameters after a colon (keys not given keep these defaults):\n" +
+                     shape_syntax() + "e.g. --shape flower:R=1.5,v=0.3,k=4")
+      ->capture_default_str();
+  double rotate_degrees = 0;
+  std::vector<double> centre;
+  app.add_option("--rotate", rotate_degrees, "Rotate the shape by this angle (degrees, counter-clockwise)")->capture_default_str();
+  app.add_option("--centre", centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--function", function, "Test function: x2, xy, cos1 .. cos9 (cos(2 pi m s / P))")->capture_default_str();
   app.add_option("--h", steps, "Grid steps, coarse to fine")->capture_default_str()->expected(1, 100);
   app.add_option("--operators", operators, "Operators to compare: " + variants)->capture_default_str()->expected(1, 20);
@@ -47,6 +52,10 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     auto shape = make_shape(shape_name);
+    if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
+    if (rotate_degrees != 0 || !centre.empty())
+      shape->set_pose(centre.empty() ? Eigen::Vector2d::Zero() : Eigen::Vector2d(centre[0], centre[1]),
+                      rotate_degrees * 3.14159265358979323846 / 180);
     const TestFunction f = make_test_function(function);
     ConvergenceOptions o;
     o.steps = steps;

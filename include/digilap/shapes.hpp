@@ -159,8 +159,14 @@ public:
 };
 
 /// The reference shapes by name ("circle", "ellipse", "flower", "accflower") with SPEC §6
-/// defaults. Throws digilap::Error for an unknown name, listing the known ones.
-std::unique_ptr<Shape> make_shape(const std::string& name);
+/// defaults, or with their own parameters after a colon: "circle:r=2", "ellipse:a=3,b=1",
+/// "flower:R=1.5,v=0.3,k=4,phase=0.2", "accflower:R=2,v=0.25,k=3" (keys not given keep their
+/// defaults). Throws digilap::Error for an unknown name or key (listing the known ones), a
+/// value that is not a number (k: a whole number from 1 to 10^6), a key given twice, or
+/// parameters the shape refuses (a radius <= 0, R <= |v|: a curve through its centre).
+std::unique_ptr<Shape> make_shape(const std::string& spec);
 std::vector<std::string> shape_names();
+/// One line per shape: its name and keys with their defaults (for --help).
+std::string shape_syntax();
 
 }  // namespace digilap
