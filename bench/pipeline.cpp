@@ -18,6 +18,11 @@
 using namespace digilap;
 
 namespace {
+// The parameters of the run (--length-scale 1 --ct 0.03 --kR 1: the former defaults).
+struct Parameters {
+  double length_scale = 0, c_t = HeatLaplacianOptions{}.c_t, k_R = IINormalOptions{}.k_R;
+} parameters;
+
 double now() { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); }
 double peak_gb() {
   rusage u{};
@@ -42,13 +47,14 @@ void run(double h, int threads, double eigen_min_h, double free_eigen_min_h, dou
   const ContourSet contours = track_contours(set);
   const double t_contours = now() - t0;
   t0 = now();
-  const LinelNormals normals = ii_normals(set, contours);
+  const LinelNormals normals = ii_normals(set, contours, {parameters.k_R, parameters.length_scale});
   const double t_normals = now() - t0;
   t0 = now();
   const Measures mu = measures(contours, normals);
   const double t_measures = now() - t0;
   const double peak_front = peak_gb();
   HeatLaplacianOptions o;
+  o.c_t = parameters.c_t;
   o.stiffness = h >= eigen_min_h;  // A only where the factorized solvers run
   o.memory_limit_bytes = memory_limit;
   const Eigen::VectorXd ones_like = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(contours.linel_count()));
@@ -152,6 +158,10 @@ int main(int argc, char** argv) {
   app.add_option("--eigen-min-h", eigen_min_h, "Smallest h for the factorized 10 eigenpairs")->capture_default_str();
   app.add_option("--free-eigen-min-h", free_eigen_min_h, "Smallest h for the matrix-free 10 eigenpairs")->capture_default_str();
   app.add_option("--memory-limit", memory_limit, "Bytes the operator may take")->capture_default_str();
+  app.add_option("--length-scale", parameters.length_scale, "l (0: measured; 1 with --ct 0.03 --kR 1: the former defaults)")
+      ->capture_default_str();
+  app.add_option("--ct", parameters.c_t, "Heat time constant")->capture_default_str();
+  app.add_option("--kR", parameters.k_R, "II radius constant")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   std::printf("| h | threads | N | nnz(L) | digitize | contours | normals | measures | peak GiB after measures | assemble | "
               "mat-vec | matrix-free setup | matrix-free mat-vec | speed-up | agreement | heat step (CG, matrix-free) | "

@@ -3,6 +3,7 @@
 #include "digilap/error.hpp"
 #include "elements.hpp"
 #include "gaussian_kernel.hpp"
+#include "huge_pages.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -84,6 +85,9 @@ struct PointGrid {
 void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::Index>& row_nnz) {
   m.resize(n, n);
   m.resizeNonZeros(static_cast<Eigen::Index>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))));
+  // Not yet written: the rows fill them in parallel, first touch on huge pages.
+  detail::advise_huge_pages(m.valuePtr(), sizeof(double) * static_cast<std::size_t>(m.nonZeros()));
+  detail::advise_huge_pages(m.innerIndexPtr(), sizeof(int) * static_cast<std::size_t>(m.nonZeros()));
   int* outer = m.outerIndexPtr();
   outer[0] = 0;
   for (Eigen::Index r = 0; r < n; ++r) outer[r + 1] = outer[r] + static_cast<int>(row_nnz[r]);

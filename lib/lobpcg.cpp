@@ -1,5 +1,7 @@
 #include "lobpcg.hpp"
 
+#include "huge_pages.hpp"
+
 #include <Eigen/Eigenvalues>
 
 #include <algorithm>
@@ -90,6 +92,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   // The basis [X | W | P] and its image live side by side in s and cs.
   Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, 0), cp(n, 0);
   Eigen::MatrixXd next_x(n, b), next_cx(n, b), next_p(n, b), next_cp(n, b);
+  for (Eigen::MatrixXd* m : {&s, &cs, &r, &w, &cw, &next_x, &next_cx, &next_p, &next_cp})
+    advise_huge_pages(m->data(), sizeof(double) * static_cast<std::size_t>(m->size()));
   apply_c(start, cw);
   result.products += static_cast<int>(b);
   RitzPairs ritz = rayleigh_ritz(gram(start, start), gram(start, cw), b);
