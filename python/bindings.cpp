@@ -1,0 +1,242 @@
+// The Python module digilap._digilap (pybind11): the C++ pipeline with NumPy arrays in and
+// NumPy/SciPy out. The operator's CSR arrays and element arrays are handed to NumPy as views on
+// the C++ operator's memory (each view keeps the operator alive), never copied. The GIL is
+// released around every call that computes. The pure-Python layer (digilap/__init__.py) adds
+// the one-call laplacian() and the docstrings' conventions.
+#include "digilap/digilap.hpp"
+
+#include <pybind11/eigen.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <memory>
+#include <string>
+
+namespace py = pybind11;
+using namespace digilap;
+
+namespace {
+
+using Release = py::call_guard<py::gil_scoped_release>;
+
+// A NumPy view on `count` elements at `data`, kept alive by `owner` (a Python object holding
+// the C++ memory). A 1-D view on a 1-element ndarray base would make SciPy copy ("a view of a
+// much larger array" is pruned): the base is an ndarray of the same size, itself kept alive
+// by the owner.
+template <class T>
+py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) {
+  py::array_t<T> a(shape, data, owner);
+  a.attr("flags").attr("writeable") = false;
+  return std::move(a);
+}
+
+// One of the operator's matrices as scipy.sparse.csr_matrix over its own arrays.
+py::object csr_view(const SparseMatrix& m, py::handle owner) {
+  if (m.rows() == 0) return py::none();
+  const auto n = static_cast<py::ssize_t>(m.rows()), nnz = static_cast<py::ssize_t>(m.nonZeros());
+  py::array data = view(m.valuePtr(), {nnz}, owner), indices = view(m.innerIndexPtr(), {nnz}, owner),
+            indptr = view(m.outerIndexPtr(), {n + 1}, owner);
+  py::object csr = py::module_::import("scipy.sparse").attr("csr_matrix");
+  return csr(py::make_tuple(data, indices, indptr), py::arg("shape") = py::make_tuple(n, n), py::arg("copy") = false);
+}
+
+// A boolean mask (rows x columns, row 0 at the top: the frame of read_image) as a digital set:
+// column c, row r is pixel (c, rows - 1 - r).
+DigitalSet set_from_mask(const py::array& mask, double h) {
+  if (mask.ndim() != 2)
+    throw py::value_error("mask: expected a 2-D array (rows x columns), got " + std::to_string(mask.ndim()) + " dimension(s)");
+  if (mask.dtype().kind() != 'b' && mask.dtype().kind() != 'u' && mask.dtype().kind() != 'i')
+    throw py::type_error("mask: expected a boolean or integer array, got dtype " + py::str(mask.dtype()).cast<std::string>());
+  const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> bits(mask.attr("astype")("uint8", py::arg("copy") = false));
+  const auto rows = static_cast<int>(bits.shape(0)), cols = static_cast<int>(bits.shape(1));
+  if (rows == 0 || cols == 0) throw py::value_error("mask: the array is empty (" + std::to_string(rows) + " x " + std::to_string(cols) + ")");
+  std::vector<std::uint8_t> flipped(static_cast<std::size_t>(rows) * cols);
+  for (int r = 0; r < rows; ++r)
+    std::copy(bits.data(r, 0), bits.data(r, 0) + cols, flipped.begin() + static_cast<std::ptrdiff_t>(rows - 1 - r) * cols);
+  const double step = h > 0 ? h : 1.0 / std::max(rows, cols);
+  if (!(h == 0 || (h > 0 && std::isfinite(h)))) require_positive("mask: h", h);
+  return DigitalSet::from_bitmap(step, cols, rows, flipped);
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_digilap, m) {
+  m.doc() = "digilap: a convergent Laplace-Beltrami operator on the boundary of digitized shapes (C++ core).";
+  static py::exception<Error> error(m, "Error", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      PyErr_SetString(error.ptr(), e.what());
+    }
+  });
+
+  // --- Shapes ------------------------------------------------------------------------------
+  py::class_<Shape, std::shared_ptr<Shape>>(m, "Shape", "A closed parametric curve theta -> point (SPEC §6).")
+      .def_property_readonly("name", &Shape::name)
+      .def("length", &Shape::length, "Exact length of the curve.")
+      .def("point", &Shape::point, py::arg("theta"), "The point at parameter theta, as a 2-vector.")
+      .def("inside", &Shape::inside, py::arg("p"), "Whether p is strictly inside the curve.")
+      .def("closest_parameter", &Shape::closest_parameter, py::arg("p"),
+           "The parameter of the point of the curve closest to p (orthogonal projection).")
+      .def("set_pose", &Shape::set_pose, py::arg("centre"), py::arg("rotation"),
+           "Moves the shape's centre to `centre` and rotates it by `rotation` radians.");
+  py::class_<Circle, Shape, std::shared_ptr<Circle>>(m, "Circle", "Circle of radius r.")
+      .def(py::init<double>(), py::arg("r") = 1.0);
+  py::class_<Ellipse, Shape, std::shared_ptr<Ellipse>>(m, "Ellipse", "Ellipse with semi-axes a (x) and b (y).")
+      .def(py::init<double, double>(), py::arg("a") = 2.0, py::arg("b") = 1.0);
+  py::class_<Flower, Shape, std::shared_ptr<Flower>>(m, "Flower", "Flower r = R + v cos(k theta + phi).")
+      .def(py::init<double, double, int, double>(), py::arg("R") = 2.0, py::arg("v") = 0.5, py::arg("k") = 5, py::arg("phi") = 0.0);
+  py::class_<AccFlower, Shape, std::shared_ptr<AccFlower>>(m, "AccFlower", "Accelerated flower r = R + v cos(2k/pi^2 theta^3).")
+      .def(py::init<double, double, int>(), py::arg("R") = 2.0, py::arg("v") = 0.25, py::arg("k") = 2);
+  m.def("make_shape", [](const std::string& spec) { return std::shared_ptr<Shape>(make_shape(spec)); }, py::arg("spec"),
+        "A reference shape from text: 'flower', 'flower:R=1.5,v=0.3,k=4', 'circle:r=2', ...");
+
+  // --- Digital sets and contours -------------------------------------------------------------
+  py::class_<DigitalSet>(m, "DigitalSet", "A set of pixels (i, j) of the grid hZ^2, stored as runs per row.")
+      .def_property_readonly("h", &DigitalSet::h)
+      .def("pixel_count", &DigitalSet::pixel_count)
+      .def("contains", &DigitalSet::contains, py::arg("i"), py::arg("j"));
+  m.def("digitize", &digitize, py::arg("shape"), py::arg("h"), Release(),
+        "Gauss digitization: the pixels (i h, j h) strictly inside the shape.");
+  m.def("from_mask", &set_from_mask, py::arg("mask"), py::arg("h") = 0.0,
+        "A digital set from a 2-D boolean mask (True = foreground), row 0 at the top (the frame of "
+        "read_image and of scikit-image): column c, row r is the pixel (c, rows - 1 - r). h = 0 means "
+        "1 / max(rows, columns), the mask spanning the unit square.");
+  m.def("read_image", [](const std::string& path, double h, double threshold, bool invert) {
+        const GrayImage image = read_image(path);
+        return binarize(image, BinarizeOptions{h, threshold, invert});
+      }, py::arg("path"), py::arg("h") = 0.0, py::arg("threshold") = 0.5, py::arg("invert") = false, Release(),
+      "Reads a PBM, PGM or PNG file and keeps the pixels darker than threshold * maxval (lighter with invert).");
+  py::class_<Contour>(m, "Contour", "A closed cycle of linels; pointels[i] (integers) starts linel i.")
+      .def("__len__", &Contour::size)
+      .def_property_readonly("pointels", [](const Contour& c) {
+        Eigen::MatrixX2i p(static_cast<Eigen::Index>(c.size()), 2);
+        for (std::size_t i = 0; i < c.size(); ++i) p.row(static_cast<Eigen::Index>(i)) = c.pointels[i].transpose();
+        return p;
+      })
+      .def("twice_signed_area", &Contour::twice_signed_area)
+      .def("is_hole", &Contour::is_hole);
+  py::class_<ContourSet>(m, "ContourSet", "The contours of a digital set, with its grid step h.")
+      .def_readonly("h", &ContourSet::h)
+      .def_readonly("contours", &ContourSet::contours)
+      .def("__len__", [](const ContourSet& c) { return c.contours.size(); })
+      .def("linel_count", &ContourSet::linel_count);
+  m.def("track_contours", &track_contours, py::arg("set"), Release(), "Every contour of a digital set (outer ones CCW, holes CW).");
+  m.def("filter_contours", [](const ContourSet& c, std::size_t min_linels, bool largest_only) {
+        return filter_contours(c, {min_linels, largest_only}).contours;
+      }, py::arg("contours"), py::arg("min_linels") = 0, py::arg("largest_only") = false,
+      "The contours with at least min_linels linels (or the largest only).");
+
+  // --- Normals, measures ---------------------------------------------------------------------
+  py::class_<LinelNormals>(m, "LinelNormals", "One unit normal per linel, with the length scale l and radius R used.")
+      .def_readonly("length_scale", &LinelNormals::length_scale)
+      .def_readonly("radius", &LinelNormals::radius)
+      .def("__getitem__", [](const LinelNormals& n, std::size_t c) -> Eigen::MatrixX2d { return n.at(c); });
+  m.def("ii_normals", [](const DigitalSet& s, const ContourSet& c, double k_R, double length_scale) {
+        return ii_normals(s, c, {k_R, length_scale});
+      }, py::arg("set"), py::arg("contours"), py::arg("k_R") = IINormalOptions{}.k_R, py::arg("length_scale") = 0.0,
+      Release(), "Integral Invariant normals, disk radius R = k_R h^(1/3) l^(2/3) (l measured when 0).");
+  m.def("exact_normals", &exact_normals, py::arg("shape"), py::arg("contours"), py::arg("length_scale") = 0.0, Release(),
+        "The exact outward normals of a reference shape at the linels' closest points.");
+  py::class_<Measures>(m, "Measures", "Lengths mu of linels and vertices, arclengths, and the length scale.")
+      .def_readonly("length_scale", &Measures::length_scale)
+      .def_readonly("normal_radius", &Measures::normal_radius)
+      .def_readonly("clamped_linels", &Measures::clamped_linels)
+      .def("total_length", &Measures::total_length);
+  m.def("measures", &measures, py::arg("contours"), py::arg("normals"), Release(),
+        "mu(l) = h <n, n_e> (clamped at 0), mu(v) the mean of its two linels, arclength S.");
+  m.def("length_scale", [](const DigitalSet& s, const ContourSet& c) { return length_scale(s, c).length; },
+        py::arg("set"), py::arg("contours"), Release(), "The shape's length scale l (a robust small radius of curvature).");
+
+  // --- The operator ---------------------------------------------------------------------------
+  py::enum_<DistanceMode>(m, "Distance").value("geodesic", DistanceMode::Geodesic).value("euclidean", DistanceMode::Euclidean);
+  py::enum_<Placement>(m, "Placement").value("pointels", Placement::Pointels).value("linels", Placement::Linels);
+  py::class_<ContourOperator, std::shared_ptr<ContourOperator>>(
+      m, "ContourOperator",
+      "The heat-kernel Laplacian: L (approximates +Laplace-Beltrami, negative semidefinite), A = M L "
+      "(symmetric), M = diag(mu), all scipy.sparse.csr_matrix views on the operator's memory.")
+      .def_property_readonly("L", [](py::object self) { return csr_view(self.cast<ContourOperator&>().L, self); })
+      .def_property_readonly("A", [](py::object self) { return csr_view(self.cast<ContourOperator&>().A, self); })
+      .def_property_readonly("M", [](py::object self) { return csr_view(self.cast<ContourOperator&>().M, self); })
+      .def_property_readonly("mass", [](py::object self) {
+        const auto& op = self.cast<ContourOperator&>();
+        return view(op.mass.data(), {op.mass.size()}, self);
+      })
+      .def_property_readonly("arclength", [](py::object self) {
+        const auto& op = self.cast<ContourOperator&>();
+        return view(op.arclength.data(), {op.arclength.size()}, self);
+      })
+      .def_property_readonly("positions", [](py::object self) {
+        const auto& op = self.cast<ContourOperator&>();  // column-major N x 2: x then y
+        py::array a = view(op.positions.data(), {2, op.positions.rows()}, self);
+        return py::object(a.attr("T"));
+      })
+      .def_property_readonly("row_offset", [](const ContourOperator& op) { return op.row_offset; })
+      .def_readonly("contour_length", &ContourOperator::contour_length)
+      .def_readonly("t", &ContourOperator::t)
+      .def_readonly("cut", &ContourOperator::cut)
+      .def_readonly("length_scale", &ContourOperator::length_scale)
+      .def("rows", &ContourOperator::rows);
+  m.def("heat_laplacian", [](const ContourSet& c, const Measures& mu, double t, double c_t, double k, DistanceMode d,
+                             Placement p, bool richardson, bool stiffness, double length_scale, double memory_limit) {
+        HeatLaplacianOptions o;
+        o.t = t, o.c_t = c_t, o.k = k, o.distance = d, o.placement = p, o.richardson = richardson;
+        o.stiffness = stiffness, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
+        return std::shared_ptr<ContourOperator>(new ContourOperator(heat_laplacian(c, mu, o)));  // elided: no copy of L, A
+      }, py::arg("contours"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
+      py::arg("k") = HeatLaplacianOptions{}.k, py::arg("distance") = DistanceMode::Geodesic,
+      py::arg("placement") = Placement::Pointels, py::arg("richardson") = false, py::arg("stiffness") = true,
+      py::arg("length_scale") = 0.0, py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
+      "The heat-kernel Laplacian of SPEC §4; t = 0 means c_t h^(2/3) l^(4/3).");
+
+  // --- Spectra, heat, files --------------------------------------------------------------------
+  py::class_<Spectrum>(m, "Spectrum", "Eigenpairs of -A x = lambda M x, ascending, M-orthonormal vectors.")
+      .def_readonly("eigenvalues", &Spectrum::eigenvalues)
+      .def_readonly("laplace_beltrami", &Spectrum::laplace_beltrami)
+      .def_readonly("eigenvectors", &Spectrum::eigenvectors)
+      .def_readonly("iterations", &Spectrum::iterations)
+      .def_readonly("undefined_estimates", &Spectrum::undefined_estimates);
+  m.def("smallest_eigenpairs", [](const ContourOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs (every copy of repeated ones).");
+  m.def("smallest_eigenpairs_per_contour",
+        [](const ContourOperator& op, int count) { return smallest_eigenpairs_per_contour(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each contour on its own.");
+  py::class_<MatrixFreeLaplacian, std::shared_ptr<MatrixFreeLaplacian>>(
+      m, "MatrixFreeLaplacian", "L applied without storing it (geodesic mode, 1D fast Gauss transform to epsilon).")
+      .def(py::init([](const ContourSet& c, const Measures& mu, double t, double c_t, double k, double epsilon) {
+             HeatLaplacianOptions o;
+             o.t = t, o.c_t = c_t, o.k = k;
+             py::gil_scoped_release release;
+             return std::make_shared<MatrixFreeLaplacian>(c, mu, o, epsilon);
+           }), py::arg("contours"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
+           py::arg("k") = HeatLaplacianOptions{}.k, py::arg("epsilon") = 1e-10)
+      .def("rows", &MatrixFreeLaplacian::rows)
+      .def_property_readonly("t", &MatrixFreeLaplacian::t)
+      .def_property_readonly("mass", &MatrixFreeLaplacian::mass)
+      .def("matvec", [](const MatrixFreeLaplacian& op, const Eigen::VectorXd& x) {
+        if (x.size() != op.rows())
+          throw py::value_error("x: expected " + std::to_string(op.rows()) + " values, got " + std::to_string(x.size()));
+        py::gil_scoped_release release;
+        return Eigen::VectorXd(op * x);
+      }, py::arg("x"), "L x.")
+      .def("smallest_eigenpairs", [](const MatrixFreeLaplacian& op, int count) { return smallest_eigenpairs(op, {count}); },
+           py::arg("count") = 10, Release(), "The count smallest eigenpairs (preconditioned LOBPCG per contour).");
+  py::enum_<TimeScheme>(m, "TimeScheme").value("implicit_euler", TimeScheme::ImplicitEuler).value("crank_nicolson", TimeScheme::CrankNicolson);
+  py::class_<HeatFlow>(m, "HeatFlow", "Heat diffusion du/dtau = L u, factorized once; conserves each contour's heat.")
+      .def(py::init([](const ContourOperator& op, double dt, TimeScheme s) {
+             py::gil_scoped_release release;
+             return std::make_unique<HeatFlow>(op, dt, s);
+           }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson)
+      .def("step", &HeatFlow::step, py::arg("u"), Release())
+      .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
+  m.def("save_operator", [](const ContourOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
+        if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
+        py::gil_scoped_release release;
+        return save_operator(op, dir, prefix, format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket);
+      }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
+      "Writes L, A, M and the element table (Matrix Market + CSV, or .npz).");
+  m.def("load_matrix_market", &load_matrix_market, py::arg("path"), Release(),
+        "Reads a Matrix Market coordinate file (general or symmetric) as a scipy-compatible sparse matrix.");
+}

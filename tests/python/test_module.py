@@ -1,0 +1,187 @@
+"""The Python module against the C++ library: same matrices, same spectra, no copies, clear
+errors, the GIL released while computing (issue 11). Run by ctest (test python_module)."""
+import gc
+import os
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+import scipy.io
+import scipy.sparse
+import scipy.sparse.linalg
+
+import digilap
+
+
+def flower_operator(h=0.02, **options):
+    shape = digilap.Flower()
+    digital = digilap.digitize(shape, h)
+    contours = digilap.track_contours(digital)
+    mu = digilap.measures(contours, digilap.ii_normals(digital, contours))
+    return digilap.heat_laplacian(contours, mu, **options)
+
+
+def test_csr_arrays_equal_the_cpp_export(tmp_path):
+    op = flower_operator()
+    digilap.save_operator(op, str(tmp_path))
+    for name in ("L", "A", "M"):
+        ours = getattr(op, name)
+        assert isinstance(ours, scipy.sparse.csr_matrix)
+        text = scipy.io.mmread(str(tmp_path / f"{name}.mtx")).tocsr()
+        assert ours.shape == text.shape and ours.nnz == text.nnz
+        assert (ours != text).nnz == 0, name  # bit for bit: the export writes round-trip digits
+    # The app writes the same operator.
+    app = os.environ.get("DIGILAP_APP_OPERATOR")
+    if app:
+        subprocess.run([app, "--quiet", "--shape", "flower", "--h", "0.02", "--format", "npz", "--out", str(tmp_path / "app")],
+                       check=True, stdout=subprocess.DEVNULL)
+        assert (scipy.sparse.load_npz(str(tmp_path / "app" / "L.npz")) != op.L).nnz == 0
+
+
+def test_eigsh_on_the_pair_gives_the_library_eigenvalues():
+    op = flower_operator()
+    ours = digilap.smallest_eigenpairs(op, 8)
+    values = np.sort(scipy.sparse.linalg.eigsh(-op.A, 8, op.M, sigma=-1e-8)[0])
+    # Both solve -A x = lambda M x to about 1e-12 relative; 1e-8 leaves room for eigsh's own tolerance.
+    assert np.allclose(values, ours.eigenvalues, rtol=0, atol=1e-8 * ours.eigenvalues[-1])
+    vectors = ours.eigenvectors
+    gram = vectors.T @ (op.M @ vectors)
+    assert np.abs(gram - np.eye(8)).max() < 1e-9
+
+
+def test_one_call_laplacian_in_the_robust_laplacian_convention():
+    yy, xx = np.mgrid[0:80, 0:100]
+    mask = (xx - 50) ** 2 / 40**2 + (yy - 40) ** 2 / 25**2 < 1
+    L, M = digilap.laplacian(mask)
+    assert isinstance(L, scipy.sparse.csr_matrix) and isinstance(M, scipy.sparse.csr_matrix)
+    assert (L != L.T).nnz == 0  # symmetric bit for bit
+    values = np.sort(scipy.sparse.linalg.eigsh(L, 11, M, sigma=-1e-8)[0])
+    assert abs(values[0]) < 1e-8 * values[1]
+    ratios = values[1:] / values[1]
+    for m in range(1, 6):  # lambda_{2m-1} ~ lambda_{2m} ~ m^2 lambda_1 on a closed curve
+        assert abs(ratios[2 * m - 1] - m * m) < 0.05 * m * m and abs(ratios[2 * m - 2] - m * m) < 0.05 * m * m
+    L2, _ = digilap.laplacian(digilap.Circle(), h=0.05)
+    assert L2.shape[0] > 0
+
+
+def test_matrix_free_linear_operator_matches_the_matrix():
+    shape = digilap.Flower()
+    digital = digilap.digitize(shape, 0.01)
+    contours = digilap.track_contours(digital)
+    mu = digilap.measures(contours, digilap.ii_normals(digital, contours))
+    op = digilap.heat_laplacian(contours, mu)
+    free = digilap.MatrixFreeLaplacian(contours, mu)
+    linear = free.as_linear_operator()
+    v = np.random.default_rng(1).standard_normal(op.rows())
+    scale = np.abs(op.L.diagonal()).max() * np.abs(v).max()
+    assert np.abs(linear @ v - op.L @ v).max() <= 1e-10 * scale  # the transform's epsilon
+    spectrum = free.smallest_eigenpairs(6)
+    assert np.allclose(spectrum.eigenvalues, digilap.smallest_eigenpairs(op, 6).eigenvalues, atol=1e-7)
+
+
+def test_arrays_are_views_on_the_operator_and_outlive_its_variable():
+    op = flower_operator()
+    L, mass, positions = op.L, op.mass, op.positions
+    # Views: the same memory every time, not copies; read-only (the operator owns them).
+    assert np.shares_memory(L.data, op.L.data) and np.shares_memory(L.indices, op.L.indices)
+    assert np.shares_memory(mass, op.mass) and np.shares_memory(positions, op.positions)
+    assert not mass.flags.writeable
+    expected = L.sum(axis=1).copy(), mass.sum(), positions.copy()
+    del op
+    gc.collect()
+    for _ in range(3):  # allocate to reuse freed memory, were it freed
+        flower_operator(0.05)
+    assert np.array_equal(L.sum(axis=1), expected[0])
+    assert mass.sum() == expected[1] and np.array_equal(positions, expected[2])
+
+
+def test_horse_spectrum_ratios_are_squares():
+    path = os.path.join(os.environ.get("DIGILAP_TEST_DATA", ""), "horse.png")
+    if not os.path.exists(path):
+        pytest.skip("horse.png not found: run scripts/fetch_test_data.sh")
+    digital = digilap.read_image(path)
+    contours = digilap.filter_contours(digilap.track_contours(digital), largest_only=True)
+    op = digilap.heat_laplacian(contours, digilap.measures(contours, digilap.ii_normals(digital, contours)))
+    values = digilap.smallest_eigenpairs(op, 11).eigenvalues
+    for m in range(1, 6):
+        assert abs(values[2 * m] / values[1] - m * m) < 0.05 * m * m
+
+
+@pytest.mark.parametrize("mask, exception, fragment", [
+    (np.zeros((4, 4, 2), bool), ValueError, "expected a 2-D array"),
+    (np.zeros((0, 5), bool), ValueError, "the array is empty"),
+    (np.ones((5, 5), np.float64), TypeError, "expected a boolean or integer array"),
+    (np.array(["a", "b"]).reshape(1, 2), TypeError, "expected a boolean or integer array"),
+])
+def test_bad_masks_are_refused_with_the_argument(mask, exception, fragment):
+    with pytest.raises(exception, match=fragment):
+        digilap.from_mask(mask)
+
+
+def test_bad_values_raise_digilap_error_with_the_cpp_message():
+    assert issubclass(digilap.Error, ValueError)
+    with pytest.raises(digilap.Error, match="grid step h must be > 0 and finite"):
+        digilap.digitize(digilap.Circle(), 0.0)
+    with pytest.raises(digilap.Error, match="must be > 0"):
+        digilap.from_mask(np.ones((5, 5), bool), h=-1.0)
+    with pytest.raises(digilap.Error, match="above the memory limit"):
+        flower_operator(0.02, k=1e6, memory_limit=1e6)  # a huge k: every pair, refused with its size
+    with pytest.raises(digilap.Error, match="not finite"):
+        digilap.Circle().closest_parameter(np.array([np.nan, 0.0]))
+    with pytest.raises(digilap.Error, match="unknown parameter"):
+        digilap.make_shape("flower:q=1")
+    with pytest.raises(digilap.Error, match="Matrix Market"):
+        digilap.load_matrix_market("/nonexistent.mtx")
+    with pytest.raises(TypeError):
+        digilap.digitize("circle", 0.1)
+    free = digilap.MatrixFreeLaplacian(*_contours_and_mu())
+    with pytest.raises(ValueError, match="expected"):
+        free.matvec(np.zeros(3))
+
+
+def _contours_and_mu():
+    digital = digilap.digitize(digilap.Circle(), 0.05)
+    contours = digilap.track_contours(digital)
+    return contours, digilap.measures(contours, digilap.ii_normals(digital, contours))
+
+
+def test_non_contiguous_masks_are_read_correctly():
+    yy, xx = np.mgrid[0:60, 0:60]
+    mask = (xx - 30) ** 2 + (yy - 30) ** 2 < 20**2
+    wide = np.zeros((60, 120), bool)
+    wide[:, ::2] = mask
+    strided = wide[:, ::2]  # a view with a stride of 2: not contiguous
+    assert not strided.flags.c_contiguous
+    a = digilap.from_mask(strided, 0.1)
+    b = digilap.from_mask(np.ascontiguousarray(mask), 0.1)
+    assert a.pixel_count() == b.pixel_count() == mask.sum()
+    assert a.contains(30, 59 - 30) and not a.contains(0, 0)  # row 0 at the top
+
+
+def test_a_second_thread_runs_while_the_operator_is_assembled():
+    digital = digilap.digitize(digilap.Flower(), 0.001)
+    contours = digilap.track_contours(digital)
+    mu = digilap.measures(contours, digilap.ii_normals(digital, contours))
+    ticks = []
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+
+    worker = threading.Thread(target=count)
+    worker.start()
+    time.sleep(0.01)
+    before = len(ticks)
+    start = time.perf_counter()
+    op = digilap.heat_laplacian(contours, mu, c_t=0.3, length_scale=1.0)  # ~0.1 s, GIL released
+    elapsed = time.perf_counter() - start
+    during = len([t for t in ticks if start <= t <= start + elapsed])
+    done.set()
+    worker.join()
+    assert op.rows() > 0 and before > 0
+    # The counter ticks every millisecond or so: without the GIL released it would not tick at all.
+    assert elapsed > 0.02 and during >= min(5, elapsed / 0.004), (elapsed, during)
