@@ -10,6 +10,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -59,6 +60,61 @@ DigitalSet set_from_mask(const py::array& mask, double h) {
   return DigitalSet::from_bitmap(step, cols, rows, flipped);
 }
 
+// A Python callable as a function of a PolarCurve. The library calls it from OpenMP workers as
+// well, with the GIL released: each call takes the GIL. An exception (or a non-number) must not
+// cross the C++ code: it becomes NaN, which the curve's own check of its 2^15 samples at
+// construction refuses, and its message is kept for that error.
+struct PythonFunction {
+  std::shared_ptr<py::function> f;
+  std::shared_ptr<std::string> error;
+  std::string name;
+  double operator()(double theta) const {
+    py::gil_scoped_acquire gil;
+    try {
+      return f->operator()(theta).cast<double>();
+    } catch (const std::exception& e) {  // py::error_already_set, py::cast_error
+      if (error->empty()) *error = name + "(" + std::to_string(theta) + ") failed: " + e.what();
+      return std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+};
+PythonFunction python_function(const py::function& f, const std::shared_ptr<std::string>& error, const char* name) {
+  // The last reference to a Python object must be dropped with the GIL held, wherever the
+  // curve happens to be destroyed.
+  std::shared_ptr<py::function> held(new py::function(f), [](py::function* p) {
+    py::gil_scoped_acquire gil;
+    delete p;
+  });
+  return {held, error, name};
+}
+
+std::shared_ptr<PolarCurve> polar_curve(const py::function& r, const py::function& dr, const py::function& d2r,
+                                        const std::string& name) {
+  auto error = std::make_shared<std::string>();
+  std::shared_ptr<PolarCurve> curve;
+  try {
+    curve = std::make_shared<PolarCurve>(python_function(r, error, "r"), python_function(dr, error, "dr"),
+                                         python_function(d2r, error, "d2r"), name);
+    // The construction samples r and r' only: try r'' too (the curvature uses it).
+    for (int k = 0; k < 64; ++k) curve->curvature(-3.14159265358979323846 + 2 * 3.14159265358979323846 * k / 64);
+  } catch (const Error&) {
+    if (error->empty()) throw;
+  }
+  if (!error->empty()) throw Error("PolarCurve: " + *error);
+  return curve;
+}
+
+DistanceMode distance_of(const std::string& s) {
+  if (s == "geodesic") return DistanceMode::Geodesic;
+  if (s == "euclidean") return DistanceMode::Euclidean;
+  throw py::value_error("distance: expected 'geodesic' or 'euclidean', got '" + s + "'");
+}
+Placement placement_of(const std::string& s) {
+  if (s == "pointels") return Placement::Pointels;
+  if (s == "linels") return Placement::Linels;
+  throw py::value_error("placement: expected 'pointels' or 'linels', got '" + s + "'");
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_digilap, m) {
@@ -82,13 +138,16 @@ PYBIND11_MODULE(_digilap, m) {
            "The parameter of the point of the curve closest to p (orthogonal projection).")
       .def("set_pose", &Shape::set_pose, py::arg("centre"), py::arg("rotation"),
            "Moves the shape's centre to `centre` and rotates it by `rotation` radians.");
-  py::class_<Circle, Shape, std::shared_ptr<Circle>>(m, "Circle", "Circle of radius r.")
+  py::class_<PolarCurve, Shape, std::shared_ptr<PolarCurve>>(
+      m, "PolarCurve", "A polar curve r(theta) > 0 from Python callables r, dr = r', d2r = r'' (theta in [-pi, pi)).")
+      .def(py::init(&polar_curve), py::arg("r"), py::arg("dr"), py::arg("d2r"), py::arg("name") = "polar");
+  py::class_<Circle, PolarCurve, std::shared_ptr<Circle>>(m, "Circle", "Circle of radius r.")
       .def(py::init<double>(), py::arg("r") = 1.0);
   py::class_<Ellipse, Shape, std::shared_ptr<Ellipse>>(m, "Ellipse", "Ellipse with semi-axes a (x) and b (y).")
       .def(py::init<double, double>(), py::arg("a") = 2.0, py::arg("b") = 1.0);
-  py::class_<Flower, Shape, std::shared_ptr<Flower>>(m, "Flower", "Flower r = R + v cos(k theta + phi).")
+  py::class_<Flower, PolarCurve, std::shared_ptr<Flower>>(m, "Flower", "Flower r = R + v cos(k theta + phi).")
       .def(py::init<double, double, int, double>(), py::arg("R") = 2.0, py::arg("v") = 0.5, py::arg("k") = 5, py::arg("phi") = 0.0);
-  py::class_<AccFlower, Shape, std::shared_ptr<AccFlower>>(m, "AccFlower", "Accelerated flower r = R + v cos(2k/pi^2 theta^3).")
+  py::class_<AccFlower, PolarCurve, std::shared_ptr<AccFlower>>(m, "AccFlower", "Accelerated flower r = R + v cos(2k/pi^2 theta^3).")
       .def(py::init<double, double, int>(), py::arg("R") = 2.0, py::arg("v") = 0.25, py::arg("k") = 2);
   m.def("make_shape", [](const std::string& spec) { return std::shared_ptr<Shape>(make_shape(spec)); }, py::arg("spec"),
         "A reference shape from text: 'flower', 'flower:R=1.5,v=0.3,k=4', 'circle:r=2', ...");
@@ -151,8 +210,6 @@ PYBIND11_MODULE(_digilap, m) {
         py::arg("set"), py::arg("contours"), Release(), "The shape's length scale l (a robust small radius of curvature).");
 
   // --- The operator ---------------------------------------------------------------------------
-  py::enum_<DistanceMode>(m, "Distance").value("geodesic", DistanceMode::Geodesic).value("euclidean", DistanceMode::Euclidean);
-  py::enum_<Placement>(m, "Placement").value("pointels", Placement::Pointels).value("linels", Placement::Linels);
   py::class_<ContourOperator, std::shared_ptr<ContourOperator>>(
       m, "ContourOperator",
       "The heat-kernel Laplacian: L (approximates +Laplace-Beltrami, negative semidefinite), A = M L "
@@ -179,17 +236,24 @@ PYBIND11_MODULE(_digilap, m) {
       .def_readonly("cut", &ContourOperator::cut)
       .def_readonly("length_scale", &ContourOperator::length_scale)
       .def("rows", &ContourOperator::rows);
-  m.def("heat_laplacian", [](const ContourSet& c, const Measures& mu, double t, double c_t, double k, DistanceMode d,
-                             Placement p, bool richardson, bool stiffness, double length_scale, double memory_limit) {
+  m.def("heat_laplacian", [](const ContourSet& c, const Measures& mu, double t, double c_t, double k, const std::string& d,
+                             const std::string& p, bool richardson, bool stiffness, double length_scale, double memory_limit) {
         HeatLaplacianOptions o;
-        o.t = t, o.c_t = c_t, o.k = k, o.distance = d, o.placement = p, o.richardson = richardson;
+        o.t = t, o.c_t = c_t, o.k = k, o.distance = distance_of(d), o.placement = placement_of(p), o.richardson = richardson;
         o.stiffness = stiffness, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
         return std::shared_ptr<ContourOperator>(new ContourOperator(heat_laplacian(c, mu, o)));  // elided: no copy of L, A
       }, py::arg("contours"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
-      py::arg("k") = HeatLaplacianOptions{}.k, py::arg("distance") = DistanceMode::Geodesic,
-      py::arg("placement") = Placement::Pointels, py::arg("richardson") = false, py::arg("stiffness") = true,
-      py::arg("length_scale") = 0.0, py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
-      "The heat-kernel Laplacian of SPEC §4; t = 0 means c_t h^(2/3) l^(4/3).");
+      py::arg("k") = HeatLaplacianOptions{}.k, py::arg("distance") = "geodesic", py::arg("placement") = "pointels",
+      py::arg("richardson") = false, py::arg("stiffness") = true, py::arg("length_scale") = 0.0,
+      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
+      "The heat-kernel Laplacian of SPEC §4: (L g)_i = 1/(t sqrt(4 pi t)) sum_j exp(-d_ij^2/(4t)) (g_j - g_i) mu_j over\n"
+      "d_ij <= k sqrt(t). t = 0 means c_t h^(2/3) l^(4/3) (l: the measures' length scale, or length_scale).\n"
+      "distance: 'geodesic' (along the contour) or 'euclidean'; placement: 'pointels' or 'linels'.\n"
+      "Returns a ContourOperator: L (+Laplace-Beltrami, negative semidefinite), A = M L (symmetric), M.");
+  m.def("dec_laplacian", [](const ContourSet& c, const Measures& mu, bool corrected) {
+        return std::shared_ptr<ContourOperator>(new ContourOperator(dec_laplacian(c, mu, corrected ? DecLengths::Corrected : DecLengths::Naive)));
+      }, py::arg("contours"), py::arg("mu"), py::arg("corrected") = true, Release(),
+      "The DEC baseline (does not converge on digital curves; the paper's point), lengths mu (corrected) or h.");
 
   // --- Spectra, heat, files --------------------------------------------------------------------
   py::class_<Spectrum>(m, "Spectrum", "Eigenpairs of -A x = lambda M x, ascending, M-orthonormal vectors.")
@@ -231,6 +295,40 @@ PYBIND11_MODULE(_digilap, m) {
            }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson)
       .def("step", &HeatFlow::step, py::arg("u"), Release())
       .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
+  m.def("smooth_function", &smooth_function, py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
+        "f after heat diffusion for a time tau (implicit Euler steps).");
+  m.def("smooth_positions", [](const ContourOperator& op, double tau, int steps, bool preserve_area) {
+        ContourSmoothingOptions o;
+        o.tau = tau, o.steps = steps, o.preserve_area = preserve_area;
+        return smooth_positions(op, o);
+      }, py::arg("op"), py::arg("tau") = ContourSmoothingOptions{}.tau, py::arg("steps") = ContourSmoothingOptions{}.steps,
+      py::arg("preserve_area") = true, Release(), "Contour fairing: the element positions after heat diffusion (N x 2).");
+  m.def("convergence_sweep", [](const Shape& shape, const std::string& function, std::vector<double> steps,
+                                std::vector<std::string> operators) {
+        ConvergenceOptions o;
+        o.steps = std::move(steps);
+        for (const auto& name : operators) o.variants.push_back(operator_variant(name));
+        const TestFunction f = make_test_function(function);
+        ConvergenceResult r;
+        {
+          py::gil_scoped_release release;
+          r = convergence_sweep(shape, f, o);
+        }
+        py::list rows;
+        for (const ConvergenceRow& row : r.rows) {
+          py::dict d;
+          d["h"] = row.h, d["operator"] = row.variant, d["N"] = row.elements, d["nnz"] = row.nonzeros, d["t"] = row.t;
+          d["length_scale"] = row.length_scale, d["max_error"] = row.max_error, d["mean_error"] = row.mean_error;
+          d["relative_max_error"] = row.relative_max_error, d["length_estimate"] = row.length_estimate;
+          d["length_exact"] = row.length_exact;
+          rows.append(d);
+        }
+        return rows;
+      }, py::arg("shape"), py::arg("function") = "x2",
+      py::arg("steps") = std::vector<double>{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001},
+      py::arg("operators") = std::vector<std::string>{"geodesic"},
+      "The convergence experiment (the paper's Fig. 5): one dict per (h, operator) with the errors against the exact\n"
+      "Laplace-Beltrami operator of the test function ('x2', 'xy', 'cos1' .. 'cos9').");
   m.def("save_operator", [](const ContourOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
         if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
         py::gil_scoped_release release;

@@ -185,3 +185,47 @@ def test_a_second_thread_runs_while_the_operator_is_assembled():
     assert op.rows() > 0 and before > 0
     # The counter ticks every millisecond or so: without the GIL released it would not tick at all.
     assert elapsed > 0.02 and during >= min(5, elapsed / 0.004), (elapsed, during)
+
+
+def test_polar_curve_from_python_callables():
+    import math
+    wavy = digilap.PolarCurve(lambda t: 1.5 + 0.2 * math.cos(3 * t), lambda t: -0.6 * math.sin(3 * t),
+                              lambda t: -1.8 * math.cos(3 * t), name="wavy")
+    same = digilap.Flower(1.5, 0.2, 3)
+    assert wavy.name == "wavy"
+    assert abs(wavy.length() - same.length()) < 1e-12 * same.length()
+    a, b = digilap.digitize(wavy, 0.05), digilap.digitize(same, 0.05)
+    assert a.pixel_count() == b.pixel_count()
+    # A callable that raises, or returns what is not a number: refused when the curve is built,
+    # with the callable's own message; the interpreter carries on.
+    def broken(theta):
+        raise RuntimeError("no radius here")
+    with pytest.raises(digilap.Error, match="no radius here"):
+        digilap.PolarCurve(broken, lambda t: 0.0, lambda t: 0.0)
+    with pytest.raises(digilap.Error, match="d2r"):
+        digilap.PolarCurve(lambda t: 1.0, lambda t: 0.0, lambda t: "curved")
+    with pytest.raises(digilap.Error, match="must be > 0"):
+        digilap.PolarCurve(lambda t: -1.0, lambda t: 0.0, lambda t: 0.0)
+
+
+def test_downstream_functions_and_options():
+    op = flower_operator(0.05, distance="euclidean", placement="linels")
+    assert op.rows() == op.mass.size
+    with pytest.raises(ValueError, match="distance"):
+        flower_operator(0.05, distance="manhattan")
+    plain = flower_operator(0.05)
+    noisy = np.cos(3 * plain.arclength / plain.contour_length[0] * 2 * np.pi) + 0.1 * np.random.default_rng(2).standard_normal(plain.rows())
+    smooth = digilap.smooth_function(plain, noisy, 0.01, 2)
+    assert abs(plain.mass @ smooth - plain.mass @ noisy) < 1e-12 * plain.mass.sum()  # heat kept
+    assert np.abs(smooth).max() < np.abs(noisy).max()
+    faired = digilap.smooth_positions(plain, tau=1e-3)
+    assert faired.shape == (plain.rows(), 2)
+    flow = digilap.HeatFlow(plain, 0.01)
+    u = flow.advance(noisy, 5)
+    assert abs(plain.mass @ u - plain.mass @ noisy) < 1e-12 * plain.mass.sum()
+    rows = digilap.convergence_sweep(digilap.Circle(), "x2", [0.1, 0.05, 0.02], ["geodesic", "dec-naive"])
+    assert [r["h"] for r in rows[::2]] == [0.1, 0.05, 0.02]
+    geodesic = [r["relative_max_error"] for r in rows if r["operator"] == "geodesic"]
+    assert geodesic[-1] < geodesic[0]  # it converges
+    per_contour = digilap.smallest_eigenpairs_per_contour(plain, 5)
+    assert len(per_contour) == 1 and np.allclose(per_contour[0].eigenvalues, digilap.smallest_eigenpairs(plain, 5).eigenvalues)
