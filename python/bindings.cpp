@@ -49,15 +49,28 @@ DigitalSet set_from_mask(const py::array& mask, double h) {
     throw py::value_error("mask: expected a 2-D array (rows x columns), got " + std::to_string(mask.ndim()) + " dimension(s)");
   if (mask.dtype().kind() != 'b' && mask.dtype().kind() != 'u' && mask.dtype().kind() != 'i')
     throw py::type_error("mask: expected a boolean or integer array, got dtype " + py::str(mask.dtype()).cast<std::string>());
-  const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> bits(mask.attr("astype")("uint8", py::arg("copy") = false));
-  const auto rows = static_cast<int>(bits.shape(0)), cols = static_cast<int>(bits.shape(1));
-  if (rows == 0 || cols == 0) throw py::value_error("mask: the array is empty (" + std::to_string(rows) + " x " + std::to_string(cols) + ")");
-  std::vector<std::uint8_t> flipped(static_cast<std::size_t>(rows) * cols);
-  for (int r = 0; r < rows; ++r)
-    std::copy(bits.data(r, 0), bits.data(r, 0) + cols, flipped.begin() + static_cast<std::ptrdiff_t>(rows - 1 - r) * cols);
-  const double step = h > 0 ? h : 1.0 / std::max(rows, cols);
   if (!(h == 0 || (h > 0 && std::isfinite(h)))) require_positive("mask: h", h);
-  return DigitalSet::from_bitmap(step, cols, rows, flipped);
+  // Read in place through the array's strides, byte by byte (a boolean or 8-bit mask is never
+  // copied; wider integers are compared with 0 in a converted copy): runs row by row.
+  const py::array bytes = mask.itemsize() == 1 ? mask : py::array(mask.attr("astype")("bool"));
+  const py::ssize_t rows = bytes.shape(0), cols = bytes.shape(1);
+  if (rows == 0 || cols == 0) throw py::value_error("mask: the array is empty (" + std::to_string(rows) + " x " + std::to_string(cols) + ")");
+  if (rows > kMaxPixelIndex || cols > kMaxPixelIndex) throw py::value_error("mask: too large (" + std::to_string(rows) + " x " + std::to_string(cols) + ")");
+  const auto* base = static_cast<const std::uint8_t*>(bytes.data());
+  const py::ssize_t row_stride = bytes.strides(0), col_stride = bytes.strides(1);
+  std::vector<std::vector<Run>> runs(static_cast<std::size_t>(rows));
+  for (py::ssize_t r = 0; r < rows; ++r) {
+    const std::uint8_t* row = base + r * row_stride;
+    std::vector<Run>& out = runs[static_cast<std::size_t>(rows - 1 - r)];  // row 0 at the top: y = rows - 1
+    for (py::ssize_t c = 0; c < cols;) {
+      if (!row[c * col_stride]) { ++c; continue; }
+      py::ssize_t e = c;
+      while (e < cols && row[e * col_stride]) ++e;
+      out.push_back({static_cast<std::int32_t>(c), static_cast<std::int32_t>(e)});
+      c = e;
+    }
+  }
+  return DigitalSet::from_rows(h > 0 ? h : 1.0 / static_cast<double>(std::max(rows, cols)), 0, std::move(runs));
 }
 
 // A Python callable as a function of a PolarCurve. The library calls it from OpenMP workers as
