@@ -4,6 +4,7 @@
 #include "elements.hpp"
 #include "gaussian_kernel.hpp"
 #include "huge_pages.hpp"
+#include "row_assembly.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,6 +18,8 @@ using detail::Elements;
 using detail::gather_elements;
 using detail::geodesic_window;
 using detail::GeodesicWindow;
+using detail::allocate;
+using detail::finish_row;
 
 namespace {
 
@@ -81,54 +84,6 @@ struct PointGrid {
   }
 };
 
-// Allocates L and A with the given row sizes (off-diagonal counts + 1 for the diagonal).
-void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::Index>& row_nnz) {
-  m.resize(n, n);
-  m.resizeNonZeros(static_cast<Eigen::Index>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0))));
-  // Not yet written: the rows fill them in parallel, first touch on huge pages.
-  detail::advise_huge_pages(m.valuePtr(), sizeof(double) * static_cast<std::size_t>(m.nonZeros()));
-  detail::advise_huge_pages(m.innerIndexPtr(), sizeof(int) * static_cast<std::size_t>(m.nonZeros()));
-  int* outer = m.outerIndexPtr();
-  outer[0] = 0;
-  for (Eigen::Index r = 0; r < n; ++r) outer[r + 1] = outer[r] + static_cast<int>(row_nnz[r]);
-}
-
-// Row r of L and A, whose columns (ascending) are already in L's index slots and whose squared
-// distances are in L's value slots (0 on the diagonal, at position `diag`). Turns them into
-// L_rj = w(d) mu_j and A_rj = w(d) (mu_r mu_j) (the product mu_r mu_j is commutative, so A is
-// symmetric bit for bit), then sets the diagonals so that every row sums to zero. A may be null
-// (L only).
-void finish_row(SparseMatrix& L, SparseMatrix* A, Eigen::Index r, Eigen::Index diag, const Eigen::VectorXd& mu,
-                double inv_4t, double scale) {
-  const int begin = L.outerIndexPtr()[r], count = L.outerIndexPtr()[r + 1] - begin;
-  const int* col = L.innerIndexPtr() + begin;
-  double* lval = L.valuePtr() + begin;
-  gaussian_weights(lval, count, inv_4t, scale);  // squared distances -> kernel weights
-  const double mu_r = mu[r];
-  double lsum = 0, asum = 0;
-  if (!A) {  // L only
-    for (int k = 0; k < count; ++k) {
-      if (k == diag) continue;
-      lval[k] *= mu[col[k]];
-      lsum += lval[k];
-    }
-    lval[diag] = -lsum;
-    return;
-  }
-  double* aval = A->valuePtr() + begin;
-  std::copy(col, col + count, A->innerIndexPtr() + begin);
-  for (int k = 0; k < count; ++k) {
-    if (k == diag) continue;
-    const double w = lval[k], mu_j = mu[col[k]];
-    lval[k] = w * mu_j;
-    aval[k] = w * (mu_r * mu_j);
-    lsum += lval[k];
-    asum += aval[k];
-  }
-  lval[diag] = -lsum;
-  aval[diag] = -asum;
-}
-
 }  // namespace
 
 std::pair<std::size_t, std::size_t> ContourOperator::element(Eigen::Index row) const {
@@ -145,6 +100,10 @@ double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffne
 }
 
 double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures) {
+  return heat_time(h, options, measures.length_scale);
+}
+
+double heat_time(double h, const HeatLaplacianOptions& options, double measured_length_scale) {
   double t = options.t;
   if (t != 0) {
     check_positive("t", t);
@@ -152,7 +111,7 @@ double heat_time(double h, const HeatLaplacianOptions& options, const Measures& 
     check_positive("c_t", options.c_t);
     double l = options.length_scale;
     if (l != 0) check_positive("length_scale", l);
-    else l = measures.length_scale;
+    else l = measured_length_scale;
     if (!(l > 0 && std::isfinite(l)))
       throw Error("heat_laplacian: no length scale for the default heat time c_t h^(2/3) l^(4/3): the measures do "
                   "not carry one (they come from ii_normals or exact_normals); give t or length_scale");

@@ -99,6 +99,8 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
 /// l = options.length_scale, or the measures' length scale when that is 0. Throws
 /// digilap::Error when neither gives l (measures built by hand: give t or length_scale).
 double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures);
+/// The same with the measured length scale given directly (0: none), for any dimension.
+double heat_time(double h, const HeatLaplacianOptions& options, double measured_length_scale);
 
 /// Which edge lengths the DEC baseline uses.
 enum class DecLengths { Naive, Corrected };

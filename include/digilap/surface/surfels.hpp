@@ -1,0 +1,39 @@
+// digilap — the boundary of a voxel set: its surfels (SPEC §7), the 3D sibling of contour.hpp.
+// A surfel is the unit square face between a voxel of the set and a 6-neighbour outside it;
+// objects touching by an edge or a corner only are separated (the set is 6-connected).
+#pragma once
+
+#include "digilap/surface/digitization.hpp"
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+namespace digilap::surface {
+
+struct Surfel {
+  Eigen::Vector3i voxel;  ///< the voxel inside
+  std::int8_t axis = 0;   ///< 0, 1, 2: the face is orthogonal to x, y or z
+  std::int8_t sign = 1;   ///< +1 or -1: the outside neighbour is voxel + sign e_axis
+};
+
+struct SurfelSet {
+  double h = 1.0;
+  std::vector<Surfel> surfels;
+
+  std::size_t size() const { return surfels.size(); }
+  /// Centre of surfel s: voxel centre + (h / 2) n_e.
+  Eigen::Vector3d centre(std::size_t s) const;
+  /// Its trivial (outward, axis-aligned) normal n_e.
+  Eigen::Vector3d trivial_normal(std::size_t s) const;
+  /// Centres as an N x 3 matrix.
+  Eigen::MatrixX3d centres() const;
+};
+
+/// Every surfel of the set, row by row ((k, j) ascending, then i): the order depends only on
+/// the set. Parallel over rows; each face found from the runs of the voxel's row and of its
+/// four neighbouring rows (no voxel loop).
+SurfelSet extract_surfels(const VoxelSet& set);
+
+}  // namespace digilap::surface

@@ -1,0 +1,127 @@
+#include "digilap/surface/digitization.hpp"
+
+#include "digilap/error.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace digilap::surface {
+
+namespace {
+void normalize(std::vector<Run>& runs) {
+  runs.erase(std::remove_if(runs.begin(), runs.end(), [](const Run& r) { return r.end <= r.begin; }), runs.end());
+  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
+  std::size_t out = 0;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    if (out > 0 && runs[k].begin <= runs[out - 1].end) runs[out - 1].end = std::max(runs[out - 1].end, runs[k].end);
+    else runs[out++] = runs[k];
+  }
+  runs.resize(out);
+}
+void check_index(const char* what, std::int64_t v) {
+  if (v < -kMaxPixelIndex || v > kMaxPixelIndex)
+    throw Error(std::string("voxel set: ") + what + " index " + std::to_string(v) + " is outside [-" +
+                std::to_string(kMaxPixelIndex) + ", " + std::to_string(kMaxPixelIndex) + "]");
+}
+// One offset per (y, z) row between the first and the last: estimated before allocating.
+void check_rows(std::int64_t nj, std::int64_t nk) {
+  const double bytes = 32.0 * static_cast<double>(nj) * static_cast<double>(nk);  // offsets and row lists while building
+  if (bytes > 8e9) {
+    std::ostringstream msg;
+    msg << "voxel set: " << nj << " x " << nk << " rows would take about " << bytes / 1e9
+        << " GB for their offsets alone; use a coarser h";
+    throw Error(msg.str());
+  }
+}
+}  // namespace
+
+VoxelSet::VoxelSet(double h) : h_(h) { require_positive("voxel set: grid step h", h); }
+
+bool VoxelSet::contains(std::int32_t i, std::int32_t j, std::int32_t k) const {
+  const Run* b = row_begin(j, k);
+  const Run* e = row_end(j, k);
+  const Run* it = std::upper_bound(b, e, i, [](std::int32_t v, const Run& r) { return v < r.begin; });
+  return it != b && i < (it - 1)->end;
+}
+
+std::int64_t VoxelSet::voxel_count() const {
+  std::int64_t n = 0;
+  for (const Run& r : runs_) n += r.end - r.begin;
+  return n;
+}
+
+std::size_t VoxelSet::memory_bytes() const {
+  return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);
+}
+
+VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
+                             std::vector<std::vector<Run>> rows) {
+  VoxelSet set(h);
+  if (nj < 0 || nk < 0 || rows.size() != static_cast<std::size_t>(nj) * static_cast<std::size_t>(nk))
+    throw Error("voxel set: the rows must be nj x nk");
+  if (nj > 0 && nk > 0) {
+    check_index("row j", j0), check_index("row j", std::int64_t(j0) + nj - 1);
+    check_index("row k", k0), check_index("row k", std::int64_t(k0) + nk - 1);
+  }
+  set.j0_ = j0, set.k0_ = k0, set.nj_ = nj, set.nk_ = nk;
+  set.row_offset_.assign(rows.size() + 1, 0);
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    normalize(rows[r]);
+    if (!rows[r].empty()) check_index("column i", rows[r].front().begin), check_index("column i", std::int64_t(rows[r].back().end) - 1);
+    set.runs_.insert(set.runs_.end(), rows[r].begin(), rows[r].end());
+    set.row_offset_[r + 1] = static_cast<std::int64_t>(set.runs_.size());
+  }
+  return set;
+}
+
+VoxelSet VoxelSet::from_voxels(double h, const std::vector<Eigen::Vector3i>& voxels) {
+  if (voxels.empty()) return VoxelSet(h);
+  Eigen::Vector3i lo = voxels[0], hi = voxels[0];
+  for (const auto& v : voxels) {
+    for (int a = 0; a < 3; ++a) check_index("voxel", v[a]);
+    lo = lo.cwiseMin(v), hi = hi.cwiseMax(v);
+  }
+  const std::int64_t nj = std::int64_t(hi.y()) - lo.y() + 1, nk = std::int64_t(hi.z()) - lo.z() + 1;
+  check_rows(nj, nk);
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(nj * nk));
+  for (const auto& v : voxels) rows[static_cast<std::size_t>((v.z() - lo.z()) * nj + (v.y() - lo.y()))].push_back({v.x(), v.x() + 1});
+  return from_rows(h, lo.y(), lo.z(), static_cast<std::int32_t>(nj), static_cast<std::int32_t>(nk), std::move(rows));
+}
+
+VoxelSet digitize(const Surface& surface, double h) {
+  require_positive("digitize: grid step h", h);
+  const Eigen::AlignedBox3d box = surface.bounding_box();
+  const double extent = std::max(box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff());
+  if (extent / h > 1e9) {
+    std::ostringstream msg;
+    msg << "digitize: grid step h = " << h << " is too fine for this surface (voxel indices would exceed 1e9)";
+    throw Error(msg.str());
+  }
+  const auto j0 = static_cast<std::int64_t>(std::floor(box.min().y() / h)) - 1, j1 = static_cast<std::int64_t>(std::ceil(box.max().y() / h)) + 1;
+  const auto k0 = static_cast<std::int64_t>(std::floor(box.min().z() / h)) - 1, k1 = static_cast<std::int64_t>(std::ceil(box.max().z() / h)) + 1;
+  const std::int64_t nj = j1 - j0 + 1, nk = k1 - k0 + 1;
+  check_rows(nj, nk);
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(nj * nk));
+  auto in = [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return surface.inside({static_cast<double>(i) * h, static_cast<double>(j) * h, static_cast<double>(k) * h});
+  };
+#pragma omp parallel for schedule(dynamic, 16)
+  for (std::int64_t r = 0; r < nj * nk; ++r) {
+    const std::int64_t j = j0 + r % nj, k = k0 + r / nj;
+    for (const auto& [x0, x1] : surface.x_intervals(static_cast<double>(j) * h, static_cast<double>(k) * h)) {
+      auto b = static_cast<std::int64_t>(std::floor(x0 / h)) + 1;
+      auto last = static_cast<std::int64_t>(std::ceil(x1 / h)) - 1;
+      // The crossing and i h may round differently: one voxel of correction on each side.
+      if (b <= last && !in(b, j, k)) ++b;
+      else if (in(b - 1, j, k)) --b;
+      if (last >= b && !in(last, j, k)) --last;
+      else if (in(last + 1, j, k)) ++last;
+      if (b <= last) rows[static_cast<std::size_t>(r)].push_back({static_cast<std::int32_t>(b), static_cast<std::int32_t>(last + 1)});
+    }
+  }
+  return VoxelSet::from_rows(h, static_cast<std::int32_t>(j0), static_cast<std::int32_t>(k0), static_cast<std::int32_t>(nj),
+                             static_cast<std::int32_t>(nk), std::move(rows));
+}
+
+}  // namespace digilap::surface

@@ -1,0 +1,229 @@
+// Digital surfaces in 3D (SPEC §7, issue 13): reference surfaces, Gauss digitization, surfels,
+// II normals, areas, the heat-kernel operator against the exact Laplace-Beltrami operator and
+// against an independent NumPy implementation of SPEC §7 (the figures issue 13 quotes).
+#include "digilap/error.hpp"
+#include "digilap/heat_flow.hpp"
+#include "digilap/spectrum.hpp"
+#include "digilap/surface/heat_laplacian.hpp"
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <omp.h>
+
+#include <cmath>
+#include <cstring>
+#include <random>
+
+using namespace digilap;
+using namespace digilap::surface;
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+const Eigen::Vector3d kCentre(0.0123, -0.0371, 0.0217);  // off the lattice (SPEC §7)
+
+std::unique_ptr<Surface> posed(std::unique_ptr<Surface> s) {
+  s->set_pose(kCentre, Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix());
+  return s;
+}
+
+struct Pipeline {
+  VoxelSet voxels;
+  SurfelSet surfels;
+  SurfelMeasures mu;
+  SurfaceOperator op;
+};
+
+// The reference computation's parameters: t = 0.03 h^(2/3), k = 6, II normals k_R = 1 (l = 1).
+Pipeline run(const Surface& s, double h, bool exact = false, double c_t = 0.03) {
+  Pipeline p;
+  p.voxels = digitize(s, h);
+  p.surfels = extract_surfels(p.voxels);
+  p.mu = measures(p.surfels, exact ? exact_normals(s, p.surfels, 1.0) : ii_normals(p.voxels, p.surfels, {1.0, 1.0}));
+  HeatLaplacianOptions o;
+  o.c_t = c_t;
+  p.op = heat_laplacian(p.surfels, p.mu, o);
+  return p;
+}
+
+// max |L g - Delta_S g| / max |Delta_S g| for g = x^2 (relative to the centre), at the closest
+// points (SPEC §7: Delta_S g = tr(Hess g) - <n, Hess g n> - 2 H <grad g, n>).
+double x2_error(const Surface& s, const SurfaceOperator& op) {
+  Eigen::VectorXd g(op.rows()), lap(op.rows());
+  for (Eigen::Index i = 0; i < op.rows(); ++i) {
+    const Eigen::Vector3d p = s.closest_point(op.positions.row(i).transpose()), q = p - kCentre, n = s.normal(p);
+    g[i] = q.x() * q.x();
+    lap[i] = 2 - 2 * n.x() * n.x() - 2 * s.mean_curvature(p) * 2 * q.x() * n.x();
+  }
+  return (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff();
+}
+}  // namespace
+
+TEST(Surface, ReferenceSurfacesHaveExactGeometry) {
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (const char* name : {"sphere", "ellipsoid", "torus"}) {
+    const auto s = posed(make_surface(name));
+    // Closest points: on the surface (|f| tiny via inside flips), no sample of a dense
+    // parametrization of the surface closer (brute force on 400 x 400 points near the query).
+    for (int trial = 0; trial < 40; ++trial) {
+      Eigen::Vector3d p(u(rng), u(rng), u(rng));
+      p = s->closest_point(1.3 * p) + 0.05 * Eigen::Vector3d(u(rng), u(rng), u(rng));  // near the surface
+      const Eigen::Vector3d c = s->closest_point(p);
+      const Eigen::Vector3d n = s->normal(c);
+      EXPECT_NEAR(n.norm(), 1.0, 1e-12) << name;
+      EXPECT_TRUE(s->inside(c - 1e-7 * n) && !s->inside(c + 1e-7 * n)) << name;  // outward, on the surface
+      EXPECT_LE(((p - c) - (p - c).dot(n) * n).norm(), 1e-9) << name;            // p - c along the normal
+    }
+  }
+  Sphere sphere(2.0);
+  EXPECT_NEAR(sphere.mean_curvature({2, 0, 0}), 0.5, 1e-15);
+  EXPECT_NEAR(Ellipsoid(1.5, 1.5, 1.5).area(), 4 * kPi * 2.25, 1e-10);
+  const double a = 1.0, c = 0.6, e = std::sqrt(1 - c * c / (a * a));  // oblate spheroid, closed form
+  EXPECT_NEAR(Ellipsoid(a, a, c).area(), 2 * kPi * a * a * (1 + (1 - e * e) / e * std::atanh(e)), 1e-10);
+  EXPECT_NEAR(Ellipsoid(1, 1, 1).mean_curvature({0, 0, 1}), 1.0, 1e-12);
+  EXPECT_NEAR(Torus(1, 0.4).mean_curvature({1.4, 0, 0}), 0.5 * (1 / 0.4 + 1 / 1.4), 1e-12);
+  EXPECT_NEAR(Torus(1, 0.4).area(), 4 * kPi * kPi * 0.4, 1e-12);
+  EXPECT_THROW(Torus(0.4, 1), Error);
+  EXPECT_THROW(Sphere(-1), Error);
+  EXPECT_THROW(make_surface("cube"), Error);
+  EXPECT_THROW(make_surface("sphere:q=1"), Error);
+  EXPECT_THROW(sphere.closest_point({NAN, 0, 0}), Error);
+}
+
+// Gauss digitization equals the inside test voxel by voxel; surfels are exactly the faces
+// between a voxel inside and a 6-neighbour outside.
+TEST(Surface, DigitizationAndSurfelsEqualBruteForce) {
+  for (const char* name : {"sphere", "ellipsoid", "torus"}) {
+    const auto s = posed(make_surface(name));
+    const double h = 0.08;
+    const VoxelSet v = digitize(*s, h);
+    const auto box = s->bounding_box();
+    std::int64_t expected = 0, mismatches = 0, faces = 0;
+    auto in = [&](std::int64_t i, std::int64_t j, std::int64_t k) { return s->inside(Eigen::Vector3d(i * h, j * h, k * h)); };
+    for (std::int64_t k = std::floor(box.min().z() / h) - 2; k <= std::ceil(box.max().z() / h) + 2; ++k)
+      for (std::int64_t j = std::floor(box.min().y() / h) - 2; j <= std::ceil(box.max().y() / h) + 2; ++j)
+        for (std::int64_t i = std::floor(box.min().x() / h) - 2; i <= std::ceil(box.max().x() / h) + 2; ++i) {
+          const bool inside = in(i, j, k);
+          expected += inside;
+          mismatches += inside != v.contains(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k));
+          if (inside) faces += !in(i + 1, j, k) + !in(i - 1, j, k) + !in(i, j + 1, k) + !in(i, j - 1, k) + !in(i, j, k + 1) + !in(i, j, k - 1);
+        }
+    EXPECT_EQ(mismatches, 0) << name;
+    EXPECT_EQ(v.voxel_count(), expected) << name;
+    const SurfelSet f = extract_surfels(v);
+    EXPECT_EQ(static_cast<std::int64_t>(f.size()), faces) << name;
+    for (const Surfel& surfel : f.surfels) {
+      Eigen::Vector3i out = surfel.voxel;
+      out[surfel.axis] += surfel.sign;
+      ASSERT_TRUE(v.contains(surfel.voxel.x(), surfel.voxel.y(), surfel.voxel.z()));
+      ASSERT_FALSE(v.contains(out.x(), out.y(), out.z()));
+    }
+  }
+  // Memory like the surface: the unit sphere at h = 0.002 (a billion voxels inside).
+  const VoxelSet fine = digitize(Sphere(), 0.002);
+  EXPECT_LT(fine.memory_bytes(), 100u << 20);
+  EXPECT_NEAR(static_cast<double>(fine.voxel_count()) * 8e-9, 4 * kPi / 3, 1e-3);
+}
+
+// The operator's x^2 error on the unit sphere equals the independent NumPy implementation of
+// SPEC §7 at the same h (same definitions: closest-point sampling, k = 6, t = 0.03 h^(2/3), II
+// normals k_R = 1): 27.8%, 18.8%, 12.4% at h = 0.1, 0.07, 0.05 (issue 13). The tolerance, 0.1
+// point, is the rounding of the quoted figures.
+TEST(Surface, SphereErrorEqualsTheReferenceImplementation) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const std::vector<std::pair<double, double>> reference = {{0.1, 27.8}, {0.07, 18.8}, {0.05, 12.4}};
+  for (const auto& [h, percent] : reference) {
+    const Pipeline p = run(sphere, h);
+    EXPECT_NEAR(100 * x2_error(sphere, p.op), percent, 0.1) << "h = " << h;
+  }
+  const Pipeline p = run(sphere, 0.025);
+  EXPECT_EQ(p.op.rows(), 30150);  // DGtal's and the reference's N at h = 0.025
+  EXPECT_NEAR(p.mu.total_area(), 4 * kPi, 2e-3 * 4 * kPi);  // sum mu -> area (6e-4 measured)
+}
+
+// Ellipsoid and torus: the error falls with h (slope ~1 in the reference: 29% -> 3.8%, 4.4%).
+TEST(Surface, EllipsoidAndTorusConverge) {
+  for (const char* name : {"ellipsoid", "torus"}) {
+    const auto s = make_surface(name);
+    s->set_pose(kCentre, Eigen::Matrix3d::Identity());
+    const double coarse = x2_error(*s, run(*s, 0.1).op), fine = x2_error(*s, run(*s, 0.035).op);
+    const double slope = std::log(coarse / fine) / std::log(0.1 / 0.035);
+    EXPECT_GT(slope, 0.8) << name << ": " << coarse << " -> " << fine;
+    EXPECT_LT(fine, 0.12) << name;
+  }
+}
+
+// Structure on every reference surface: rows sum to 0, off-diagonals >= 0, A symmetric bit for
+// bit, -A positive semidefinite, and equal to SPEC §7 evaluated over all pairs.
+TEST(Surface, OperatorStructureAndBruteForce) {
+  for (const char* name : {"sphere", "ellipsoid", "torus"}) {
+    const auto s = posed(make_surface(name));
+    const Pipeline p = run(*s, 0.15);
+    const SurfaceOperator& op = p.op;
+    const Eigen::Index n = op.rows();
+    const Eigen::MatrixXd L(op.L), A(op.A);
+    const double t = op.t, cut = 6 * std::sqrt(t);
+    Eigen::MatrixXd brute = Eigen::MatrixXd::Zero(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const double d2 = (op.positions.row(i) - op.positions.row(j)).squaredNorm();
+        if (i != j && d2 <= cut * cut) brute(i, j) = std::exp(-d2 / (4 * t)) * op.mass[j] / (4 * kPi * t * t);
+      }
+    brute.diagonal() = -brute.rowwise().sum();
+    EXPECT_LE((L - brute).cwiseAbs().maxCoeff(), 1e-12 * L.cwiseAbs().maxCoeff()) << name;
+    EXPECT_EQ((A - A.transpose()).cwiseAbs().maxCoeff(), 0.0) << name;
+    for (Eigen::Index i = 0; i < n; ++i) EXPECT_LE(std::abs(L.row(i).sum()), 1e-12 * std::abs(L(i, i))) << name;
+    EXPECT_GE((L - Eigen::MatrixXd(L.diagonal().asDiagonal())).minCoeff(), 0.0) << name;
+    const Eigen::VectorXd eig = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(-A).eigenvalues();
+    EXPECT_GE(eig.minCoeff(), -1e-10 * eig.maxCoeff()) << name;
+  }
+}
+
+TEST(Surface, BitwiseIdenticalForOneAndTwoThreads) {
+  const auto s = posed(make_surface("torus"));
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const Pipeline one = run(*s, 0.05);
+  omp_set_num_threads(2);
+  const Pipeline two = run(*s, 0.05);
+  omp_set_num_threads(threads);
+  ASSERT_EQ(one.op.L.nonZeros(), two.op.L.nonZeros());
+  EXPECT_EQ(std::memcmp(one.mu.mu.data(), two.mu.mu.data(), sizeof(double) * one.mu.mu.size()), 0);
+  EXPECT_EQ(std::memcmp(one.op.L.valuePtr(), two.op.L.valuePtr(), sizeof(double) * one.op.L.nonZeros()), 0);
+  EXPECT_EQ(std::memcmp(one.op.L.innerIndexPtr(), two.op.L.innerIndexPtr(), sizeof(int) * one.op.L.nonZeros()), 0);
+}
+
+// The sphere's spectrum through the 2D solvers (A, mass), and its heat flow. Reference
+// (issue 13): at h = 0.05, exact normals, t = 0.1 h^(2/3), l = 1..3 raw within 7.3% of l(l+1),
+// within 0.8% after lambda -> -ln(1 - lambda t) / t. The sparse Cholesky of a surface operator
+// fills in heavily (60 s at h = 0.05, 0.7 s at h = 0.1), so the test runs at h = 0.1, where we
+// measure raw 12.1% and corrected 1.3%: asserted within 15% and 2%, the 3 + 5 + 7 copies
+// within 2% of each other.
+TEST(Surface, SphereSpectrumAndHeatFlow) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const Pipeline p = run(sphere, 0.1, true, 0.1);
+  const Spectrum s = smallest_eigenpairs(p.op.A, p.op.mass, {16});
+  const Eigen::VectorXd mu = laplace_beltrami_eigenvalues(s.eigenvalues, p.op.t);
+  EXPECT_LE(std::abs(s.eigenvalues[0]), 1e-8);
+  int k = 1;
+  for (int l = 1; l <= 3; ++l) {
+    const double exact = l * (l + 1.0);
+    double lo = 1e300, hi = 0;
+    for (int m = 0; m < 2 * l + 1; ++m, ++k) {
+      EXPECT_NEAR(s.eigenvalues[k], exact, 0.15 * exact) << "l = " << l;
+      EXPECT_NEAR(mu[k], exact, 0.02 * exact) << "l = " << l;
+      lo = std::min(lo, mu[k]), hi = std::max(hi, mu[k]);
+    }
+    EXPECT_LT((hi - lo) / exact, 0.02) << "l = " << l;  // the 2l + 1 copies stay together
+  }
+  // Heat flow: the first mode (x, eigenvalue 2) decays like exp(-2 tau); the operator's own
+  // decay is exp(-lambda_1 tau) with lambda_1 = (1 - e^(-2t))/t, so compare with the estimate.
+  Eigen::VectorXd u0(p.op.rows());
+  for (Eigen::Index i = 0; i < u0.size(); ++i) u0[i] = sphere.closest_point(p.op.positions.row(i).transpose()).x() - kCentre.x();
+  const double tau = 0.2;
+  const Eigen::VectorXd u = HeatFlow(p.op.A, p.op.mass, tau / 40, TimeScheme::CrankNicolson).advance(u0, 40);
+  const double amplitude = u.dot(p.op.mass.cwiseProduct(u0)) / u0.dot(p.op.mass.cwiseProduct(u0));
+  EXPECT_NEAR(amplitude, std::exp(-2 * tau), 0.01 * std::exp(-2 * tau));
+}
