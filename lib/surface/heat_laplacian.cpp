@@ -13,19 +13,23 @@ namespace digilap::surface {
 namespace {
 constexpr double kPi = 3.14159265358979323846;
 
-// Uniform grid over the surfel centres, cell = the cut (coarser when that would make more than
-// about 8 cells per surfel), items sorted by row within each cell.
+// Uniform grid over the surfel centres, cell = half the cut (coarser when that would make more
+// than about 8 cells per surfel), items sorted by row within each cell, with their coordinates
+// stored contiguously in the same order: the search reads memory in sequence (reading rows of
+// the column-major position matrix made it cache-bound).
 struct Grid {
   Eigen::Vector3d origin;
   double cell = 1;
+  int reach = 2;  // cells scanned on each side: ceil(cut / cell)
   Eigen::Index nx = 1, ny = 1, nz = 1;
   std::vector<Eigen::Index> start, items;
+  std::vector<Eigen::Vector3d> xyz;
 
   Grid(const Eigen::MatrixX3d& p, double cut) {
     const Eigen::Index n = p.rows();
     origin = p.colwise().minCoeff().transpose();
     const Eigen::Vector3d extent = p.colwise().maxCoeff().transpose() - origin;
-    cell = cut;
+    cell = 0.5 * cut;
     while ((extent.x() / cell + 1) * (extent.y() / cell + 1) * (extent.z() / cell + 1) > 8.0 * static_cast<double>(n) + 64) cell *= 2;
     nx = static_cast<Eigen::Index>(extent.x() / cell) + 1;
     ny = static_cast<Eigen::Index>(extent.y() / cell) + 1;
@@ -36,6 +40,9 @@ struct Grid {
     items.resize(static_cast<std::size_t>(n));
     std::vector<Eigen::Index> fill(start.begin(), start.end() - 1);
     for (Eigen::Index r = 0; r < n; ++r) items[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of(p.row(r)))]++)] = r;
+    reach = static_cast<int>(std::ceil(cut / cell));
+    xyz.resize(items.size());
+    for (std::size_t it = 0; it < items.size(); ++it) xyz[it] = p.row(items[it]).transpose();
   }
   Eigen::Index index(double v, double o, Eigen::Index count) const {
     return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
@@ -43,20 +50,24 @@ struct Grid {
   Eigen::Index cell_of(const Eigen::RowVector3d& q) const {
     return (index(q.z(), origin.z(), nz) * ny + index(q.y(), origin.y(), ny)) * nx + index(q.x(), origin.x(), nx);
   }
-  // f(j) for every j != i within `cut` of row i (in cell order).
+  // f(j) for every j != i within `cut` of row i (in cell order). The distance is computed as
+  // the assembly computes it, so that both passes and both (i, j) and (j, i) agree bit for bit.
   template <class F>
   void for_neighbours(const Eigen::MatrixX3d& p, Eigen::Index i, double cut, F&& f) const {
-    const Eigen::Index cx = index(p(i, 0), origin.x(), nx), cy = index(p(i, 1), origin.y(), ny), cz = index(p(i, 2), origin.z(), nz);
+    const Eigen::Vector3d q = p.row(i).transpose();
+    const Eigen::Index cx = index(q.x(), origin.x(), nx), cy = index(q.y(), origin.y(), ny), cz = index(q.z(), origin.z(), nz);
     const double cut2 = cut * cut;
-    for (Eigen::Index z = std::max<Eigen::Index>(0, cz - 1); z <= std::min(nz - 1, cz + 1); ++z)
-      for (Eigen::Index y = std::max<Eigen::Index>(0, cy - 1); y <= std::min(ny - 1, cy + 1); ++y)
-        for (Eigen::Index x = std::max<Eigen::Index>(0, cx - 1); x <= std::min(nx - 1, cx + 1); ++x) {
-          const Eigen::Index c = (z * ny + y) * nx + x;
-          for (Eigen::Index it = start[static_cast<std::size_t>(c)]; it < start[static_cast<std::size_t>(c + 1)]; ++it) {
-            const Eigen::Index j = items[static_cast<std::size_t>(it)];
-            if (j != i && (p.row(j) - p.row(i)).squaredNorm() <= cut2) f(j);
-          }
+    for (Eigen::Index z = std::max<Eigen::Index>(0, cz - reach); z <= std::min(nz - 1, cz + reach); ++z)
+      for (Eigen::Index y = std::max<Eigen::Index>(0, cy - reach); y <= std::min(ny - 1, cy + reach); ++y) {
+        const Eigen::Index row = (z * ny + y) * nx;
+        const Eigen::Index first = start[static_cast<std::size_t>(row + std::max<Eigen::Index>(0, cx - reach))];
+        const Eigen::Index last = start[static_cast<std::size_t>(row + std::min(nx - 1, cx + reach) + 1)];
+        for (Eigen::Index it = first; it < last; ++it) {  // the cells of one x-row are contiguous
+          const Eigen::Vector3d& o = xyz[static_cast<std::size_t>(it)];
+          const double dx = o.x() - q.x(), dy = o.y() - q.y(), dz = o.z() - q.z();
+          if (dx * dx + dy * dy + dz * dz <= cut2 && items[static_cast<std::size_t>(it)] != i) f(items[static_cast<std::size_t>(it)]);
         }
+      }
   }
 };
 }  // namespace
