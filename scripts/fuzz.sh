@@ -8,7 +8,8 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 ./scripts/setup.sh clang libclang-rt-dev
 mkdir -p build-fuzz
-srcs=(lib/image.cpp lib/digitization.cpp lib/contour.cpp lib/normals.cpp lib/measures.cpp lib/shapes.cpp)
+srcs=(lib/image.cpp lib/digitization.cpp lib/contour.cpp lib/normals.cpp lib/measures.cpp lib/shapes.cpp lib/disk_moments.cpp
+      lib/length_scale.cpp)
 # No OpenMP here: one thread per input is what libFuzzer wants; the pragmas are ignored.
 flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -Wno-unknown-pragmas
        -Iinclude -I/usr/include/eigen3)
