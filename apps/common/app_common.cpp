@@ -27,7 +27,8 @@ const CLI::Validator kPositiveFinite(
 void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_option("--shape", o.shape,
                  "Reference shape, with its own parameters after a colon (keys not given keep these defaults):\n" +
-                     shape_syntax() + "e.g. --shape flower:R=1.5,v=0.3,k=4")
+                     shape_syntax() + "e.g. --shape flower:R=1.5,v=0.3,k=4\n"
+                     "digilap-spectrum also takes the surfaces sphere:r=1, ellipsoid:a=1.2,b=1,c=0.8, torus:R=1,r=0.4 (SPEC 7)")
       ->capture_default_str();
   app.add_option("--rotate", o.rotate_degrees, "Rotate the shape by this angle (degrees, counter-clockwise)")
       ->capture_default_str();

@@ -2,6 +2,10 @@
 // operator, against the exact spectrum of the curve and the heat-kernel formula.
 #include "../common/app_common.hpp"
 #include "../common/svg_contour.hpp"
+#include "../common/svg_surface.hpp"
+
+#include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/ply.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -10,6 +14,83 @@
 #include <fstream>
 
 using namespace digilap;
+
+namespace {
+
+bool is_surface(const std::string& spec) {
+  const std::string name = spec.substr(0, spec.find(':'));
+  return name == "sphere" || name == "ellipsoid" || name == "torus";
+}
+
+// The 3D path (SPEC §7): surface -> voxels -> surfels -> II normals -> areas -> operator ->
+// the smallest eigenpairs of (A, M); a table, eigenvalues.csv, surfels.ply (mu and the
+// eigenvectors per surfel) and eigenvectors.svg.
+int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions& op_options, SpectrumOptions spectrum_options,
+                     const std::string& out_dir, int draw, app::Progress& progress) {
+  const auto shape = surface::make_surface(fe.shape);
+  if (fe.rotate_degrees != 0 || !fe.centre.empty())
+    shape->set_pose(fe.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(fe.centre[0], fe.centre[1], 0),
+                    Eigen::AngleAxisd(fe.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+  const double h = fe.h > 0 ? fe.h : 0.05;
+  progress.start("digitize + surfels");
+  const surface::VoxelSet voxels = surface::digitize(*shape, h);
+  const surface::SurfelSet surfels = surface::extract_surfels(voxels);
+  progress.finish();
+  if (surfels.size() == 0) throw Error("the digitization at h = " + std::to_string(h) + " is empty: use a smaller h");
+  progress.start("normals");
+  // k_R: the surfaces' own default (1) unless --kR was changed from the curves' default.
+  const double k_R = fe.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : fe.k_R;
+  const surface::SurfelNormals normals = surface::ii_normals(voxels, surfels, {k_R, fe.length_scale});
+  progress.finish();
+  const surface::SurfelMeasures mu = surface::measures(surfels, normals);
+  progress.start("operator");
+  const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
+  progress.finish();
+  progress.start("eigenpairs");
+  const Spectrum s = smallest_eigenpairs(op.A, op.mass, spectrum_options);
+  progress.finish();
+  const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);
+  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g\n", shape->name().c_str(), h,
+              static_cast<long>(op.rows()), mu.total_area(), shape->area(), mu.length_scale, mu.normal_radius, op.t);
+  const bool sphere = shape->name() == "sphere";
+  const double r2 = sphere ? shape->area() / (4 * 3.14159265358979323846) : 0;
+  std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t, their Laplace-Beltrami estimates%s\n",
+              sphere ? "; exact: l (l + 1) / r^2, multiplicity 2l + 1" : "");
+  std::printf("| k | lambda_k | mu_k |%s\n|---|---|---|%s\n", sphere ? " l | l(l+1)/r^2 | rel. diff |" : "", sphere ? "---|---|---|" : "");
+  std::filesystem::create_directories(out_dir);
+  std::ofstream values(out_dir + "/eigenvalues.csv");
+  if (!values) throw Error("cannot write '" + out_dir + "/eigenvalues.csv'");
+  values << "k,lambda,laplace_beltrami\n";
+  values.precision(15);
+  for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
+    std::printf("| %ld | %.6f | %.6f |", static_cast<long>(k), s.eigenvalues[k], lb[k]);
+    if (sphere) {
+      const int l = static_cast<int>(std::floor(std::sqrt(static_cast<double>(k))));  // k in [l^2, (l+1)^2)
+      const double exact = l * (l + 1.0) / r2;
+      if (l == 0) std::printf(" 0 | 0 | |");
+      else std::printf(" %d | %.6f | %.2e |", l, exact, lb[k] / exact - 1);
+    }
+    std::printf("\n");
+    values << k << ',' << s.eigenvalues[k] << ',' << lb[k] << '\n';
+  }
+  std::vector<std::pair<std::string, Eigen::VectorXd>> fields{{"mu", mu.mu}};
+  std::vector<app::SurfacePanel> panels;
+  for (Eigen::Index k = 1; k < s.eigenvalues.size(); ++k) {
+    fields.emplace_back("phi_" + std::to_string(k), s.eigenvectors.col(k));
+    char title[64];
+    std::snprintf(title, sizeof title, "phi_%ld, mu = %.4g", static_cast<long>(k), lb[k]);
+    if (static_cast<int>(panels.size()) < draw) panels.push_back({title, s.eigenvectors.col(k)});
+  }
+  surface::save_ply(surfels, fields, out_dir + "/surfels.ply");
+  if (!panels.empty())
+    app::save_surface_panels(out_dir + "/eigenvectors.svg", surfels, normals.normals, panels, 4,
+                             "Eigenvectors of the digital Laplace-Beltrami operator, " + shape->name());
+  std::printf("\nwrote %s/eigenvalues.csv\nwrote %s/surfels.ply\nwrote %s/eigenvectors.svg\n", out_dir.c_str(), out_dir.c_str(),
+              out_dir.c_str());
+  return 0;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"digilap-spectrum: smallest eigenpairs of -A x = lambda M x (Spectra, shift-and-invert;\n"
@@ -36,6 +117,10 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
+    if (is_surface(fe_options.shape)) {
+      if (matrix_free || per_contour) throw Error("--matrix-free and --per-contour are for curves; a surface has one operator");
+      return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, progress);
+    }
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     // What the tables and files need, from either operator.
     // One spectrum for the whole set, or one per contour (vectors on the contour's own rows).
