@@ -4,6 +4,8 @@
 // released around every call that computes. The pure-Python layer (digilap/__init__.py) adds
 // the one-call laplacian() and the docstrings' conventions.
 #include "digilap/digilap.hpp"
+#include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/ply.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -11,6 +13,7 @@
 #include <pybind11/stl.h>
 
 #include <limits>
+#include <map>
 #include <memory>
 #include <string>
 
@@ -348,6 +351,76 @@ PYBIND11_MODULE(_digilap, m) {
         return save_operator(op, dir, prefix, format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket);
       }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
       "Writes L, A, M and the element table (Matrix Market + CSV, or .npz).");
+  // --- Surfaces (SPEC §7): the submodule digilap.surface --------------------------------------
+  py::module_ s = m.def_submodule("surface", "Digital surfaces in 3D: the same operator on the surfels of a voxel set.");
+  py::class_<surface::Surface, std::shared_ptr<surface::Surface>>(s, "Surface", "A closed surface with exact geometry.")
+      .def_property_readonly("name", &surface::Surface::name)
+      .def("area", &surface::Surface::area, "Exact area.")
+      .def("inside", &surface::Surface::inside, py::arg("p"))
+      .def("closest_point", &surface::Surface::closest_point, py::arg("p"), "The orthogonal projection of p on the surface.")
+      .def("normal", &surface::Surface::normal, py::arg("on_surface"), "Outward unit normal at a point of the surface.")
+      .def("mean_curvature", &surface::Surface::mean_curvature, py::arg("on_surface"), "H = (k1 + k2) / 2 (1 / r on a sphere).")
+      .def("set_pose", &surface::Surface::set_pose, py::arg("centre"), py::arg("rotation"), "x -> rotation x + centre.");
+  py::class_<surface::Sphere, surface::Surface, std::shared_ptr<surface::Sphere>>(s, "Sphere").def(py::init<double>(), py::arg("r") = 1.0);
+  py::class_<surface::Ellipsoid, surface::Surface, std::shared_ptr<surface::Ellipsoid>>(s, "Ellipsoid")
+      .def(py::init<double, double, double>(), py::arg("a") = 1.2, py::arg("b") = 1.0, py::arg("c") = 0.8);
+  py::class_<surface::Torus, surface::Surface, std::shared_ptr<surface::Torus>>(s, "Torus")
+      .def(py::init<double, double>(), py::arg("R") = 1.0, py::arg("r") = 0.4);
+  py::class_<surface::VoxelSet>(s, "VoxelSet", "Voxels (i, j, k) of hZ^3 stored as runs along x.")
+      .def_property_readonly("h", &surface::VoxelSet::h)
+      .def("voxel_count", &surface::VoxelSet::voxel_count)
+      .def("contains", &surface::VoxelSet::contains, py::arg("i"), py::arg("j"), py::arg("k"));
+  s.def("digitize", &surface::digitize, py::arg("surface"), py::arg("h"), Release(), "Gauss digitization of a surface.");
+  py::class_<surface::SurfelSet>(s, "SurfelSet", "The surfels of a voxel set: faces between a voxel inside and one outside.")
+      .def("__len__", &surface::SurfelSet::size)
+      .def_property_readonly("centres", &surface::SurfelSet::centres);
+  s.def("extract_surfels", &surface::extract_surfels, py::arg("voxels"), Release());
+  py::class_<surface::SurfelNormals>(s, "SurfelNormals")
+      .def_readonly("normals", &surface::SurfelNormals::normals)
+      .def_readonly("length_scale", &surface::SurfelNormals::length_scale)
+      .def_readonly("radius", &surface::SurfelNormals::radius);
+  s.def("ii_normals", [](const surface::VoxelSet& v, const surface::SurfelSet& f, double k_R, double l) {
+        return surface::ii_normals(v, f, {k_R, l});
+      }, py::arg("voxels"), py::arg("surfels"), py::arg("k_R") = surface::SurfaceNormalOptions{}.k_R, py::arg("length_scale") = 0.0,
+      Release(), "II normals, ball radius R = k_R h^(1/3) l^(2/3) (l measured when 0).");
+  py::class_<surface::SurfelMeasures>(s, "SurfelMeasures")
+      .def_readonly("mu", &surface::SurfelMeasures::mu)
+      .def_readonly("length_scale", &surface::SurfelMeasures::length_scale)
+      .def("total_area", &surface::SurfelMeasures::total_area);
+  s.def("measures", &surface::measures, py::arg("surfels"), py::arg("normals"), Release(), "Surfel areas mu = h^2 max(0, <n, n_e>).");
+  py::class_<surface::SurfaceOperator, std::shared_ptr<surface::SurfaceOperator>>(
+      s, "SurfaceOperator", "L, A = M L, M as scipy.sparse.csr_matrix views; positions N x 3.")
+      .def_property_readonly("L", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().L, self); })
+      .def_property_readonly("A", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().A, self); })
+      .def_property_readonly("M", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().M, self); })
+      .def_property_readonly("mass", [](py::object self) {
+        const auto& op = self.cast<surface::SurfaceOperator&>();
+        return view(op.mass.data(), {op.mass.size()}, self);
+      })
+      .def_readonly("positions", &surface::SurfaceOperator::positions)
+      .def_readonly("t", &surface::SurfaceOperator::t)
+      .def_readonly("cut", &surface::SurfaceOperator::cut)
+      .def("rows", &surface::SurfaceOperator::rows);
+  s.def("heat_laplacian", [](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
+                             double length_scale, double memory_limit) {
+        HeatLaplacianOptions o;
+        o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
+        return std::shared_ptr<surface::SurfaceOperator>(new surface::SurfaceOperator(surface::heat_laplacian(f, mu, o)));
+      }, py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
+      py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0,
+      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
+      "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j.");
+  s.def("smallest_eigenpairs", [](const surface::SurfaceOperator& op, int count) {
+        Spectrum sp = smallest_eigenpairs(op.A, op.mass, {count});
+        sp.laplace_beltrami = laplace_beltrami_eigenvalues(sp.eigenvalues, op.t, &sp.undefined_estimates);
+        return sp;
+      }, py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs of (-A, M), with Laplace-Beltrami estimates.");
+  s.def("save_ply", [](const surface::SurfelSet& f, const std::map<std::string, Eigen::VectorXd>& fields, const std::string& path) {
+        const std::vector<std::pair<std::string, Eigen::VectorXd>> list(fields.begin(), fields.end());
+        const auto size = surface::save_ply(f, list, path);
+        return py::make_tuple(size.vertices, size.faces);
+      }, py::arg("surfels"), py::arg("fields"), py::arg("path"), "Writes the surfels as a PLY quad mesh with per-surfel fields.");
+
   m.def("load_matrix_market", &load_matrix_market, py::arg("path"), Release(),
         "Reads a Matrix Market coordinate file (general or symmetric) as a scipy-compatible sparse matrix.");
 }
