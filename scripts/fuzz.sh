@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
-# Builds the libFuzzer target (clang, with AddressSanitizer and UBSan) for the image reader ->
-# contour tracker -> measures chain and runs it for a bounded time on a copy of the committed
-# seed corpus. Prints the number of executions; fails on any crash or sanitizer report.
-# Usage: scripts/fuzz.sh [seconds]   (default 60)
+# Builds the libFuzzer targets (clang, with AddressSanitizer and UBSan) for the image reader ->
+# contour tracker -> measures chain and for the .npy volume reader -> surfels -> measures chain,
+# and runs each for a bounded time (the image target 60%, the volume target 40% of the budget)
+# on a copy of its committed seed corpus. Prints the number of executions; fails on any crash
+# or sanitizer report.
+# Usage: scripts/fuzz.sh [seconds]   (default 60, in all)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
@@ -16,18 +18,29 @@ flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
 # stb's zero-byte memcpy from a null pointer is harmless: the same exemption as in lib/CMakeLists.txt.
 clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/png_decode.cpp -o build-fuzz/png_decode.o
 clang++ "${flags[@]}" "${srcs[@]}" tests/fuzz/fuzz_image.cpp build-fuzz/png_decode.o -o build-fuzz/fuzz_image
-rm -rf build-fuzz/corpus build-fuzz/crash-* build-fuzz/leak-* build-fuzz/timeout-* build-fuzz/oom-*
-cp -r tests/fuzz/corpus build-fuzz/corpus
-log=build-fuzz/fuzz.log
-set +e
-build-fuzz/fuzz_image -max_total_time="$seconds" -print_final_stats=1 -max_len=4096 -rss_limit_mb=2048 \
-  -artifact_prefix=build-fuzz/ build-fuzz/corpus > "$log" 2>&1
-status=$?
-set -e
-execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
-crashes=$( (ls build-fuzz/crash-* build-fuzz/leak-* build-fuzz/timeout-* build-fuzz/oom-* 2>/dev/null || true) | wc -l)
-echo "fuzz: $execs executions in ${seconds} s, $crashes crash(es), exit status $status"
-if [ "$status" -ne 0 ] || [ "$crashes" -ne 0 ]; then
-  tail -40 "$log"
-  exit 1
-fi
+volume_srcs=(lib/surface/volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
+             lib/surface/measures.cpp lib/surface/shapes.cpp lib/digitization.cpp lib/shapes.cpp)
+clang++ "${flags[@]}" "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -o build-fuzz/fuzz_volume
+status=0
+run_target() {  # run_target <name> <seed corpus> <seconds>
+  local name="$1" seeds="$2" time="$3"
+  rm -rf "build-fuzz/$name-corpus" build-fuzz/crash-* build-fuzz/leak-* build-fuzz/timeout-* build-fuzz/oom-*
+  cp -r "$seeds" "build-fuzz/$name-corpus"
+  local log="build-fuzz/$name.log" code
+  set +e
+  "build-fuzz/$name" -max_total_time="$time" -print_final_stats=1 -max_len=4096 -rss_limit_mb=2048 \
+    -artifact_prefix=build-fuzz/ "build-fuzz/$name-corpus" > "$log" 2>&1
+  code=$?
+  set -e
+  local execs crashes
+  execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo 0)
+  crashes=$( (ls build-fuzz/crash-* build-fuzz/leak-* build-fuzz/timeout-* build-fuzz/oom-* 2>/dev/null || true) | wc -l)
+  echo "fuzz $name: $execs executions in ${time} s, $crashes crash(es), exit status $code"
+  if [ "$code" -ne 0 ] || [ "$crashes" -ne 0 ]; then
+    tail -40 "$log"
+    status=1
+  fi
+}
+run_target fuzz_image tests/fuzz/corpus $(( seconds * 6 / 10 ))
+run_target fuzz_volume tests/fuzz/volume_corpus $(( seconds - seconds * 6 / 10 ))
+exit $status

@@ -6,6 +6,7 @@
 #include "digilap/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
+#include "digilap/surface/volume.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -14,6 +15,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <functional>
 #include <tuple>
 #include <random>
 
@@ -258,4 +260,85 @@ TEST(Surface, PlyQuadMeshHasTheTopologyOfTheSurface) {
   const SurfelSet f = extract_surfels(digitize(Sphere(), 0.5));
   EXPECT_THROW(save_ply(f, {{"bad name", Eigen::VectorXd::Zero(static_cast<Eigen::Index>(f.size()))}}, dir + "/x.ply"), Error);
   EXPECT_THROW(save_ply(f, {{"mu", Eigen::VectorXd::Zero(3)}}, dir + "/x.ply"), Error);
+}
+
+// --- Volumes in (.npy) ---------------------------------------------------------------------------
+
+namespace {
+std::string npy(const std::string& descr, bool fortran, const std::vector<std::size_t>& shape, const std::string& data) {
+  std::string dims;
+  for (std::size_t d : shape) dims += std::to_string(d) + ",";
+  std::string dict = "{'descr': '" + descr + "', 'fortran_order': " + (fortran ? "True" : "False") + ", 'shape': (" + dims + "), }";
+  dict.append((64 - (10 + dict.size() + 1) % 64) % 64, ' ');
+  dict += '\n';
+  return std::string("\x93NUMPY\x01\x00", 8) + static_cast<char>(dict.size() & 0xff) + static_cast<char>(dict.size() >> 8) + dict + data;
+}
+std::string write(const std::string& name, const std::string& bytes) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  std::ofstream(path, std::ios::binary) << bytes;
+  return path;
+}
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+// A digitized sphere written as a (plane, row, column) uint8 array, in C and in Fortran order,
+// and as labels in a uint16 segmentation: read back, the same voxels (shifted to the array's
+// corner) and the same surfels.
+TEST(Surface, NpyVolumesReadBackTheVoxels) {
+  const double h = 0.1;
+  const VoxelSet sphere = digitize(Sphere(), h);
+  const int n = 24, shift = 12;  // the sphere's voxels -11..11 land in 1..23
+  std::string c_order(n * n * n, '\0'), f_order(n * n * n, '\0'), labels(2 * n * n * n, '\0');
+  for (int a = 0; a < n; ++a)
+    for (int b = 0; b < n; ++b)
+      for (int c = 0; c < n; ++c) {
+        const bool in = sphere.contains(c - shift, b - shift, a - shift);  // element [a, b, c] is voxel (c, b, a)
+        c_order[(a * n + b) * n + c] = in;
+        f_order[a + n * (b + n * c)] = in;
+        labels[2 * ((a * n + b) * n + c)] = in ? 3 : (c < 2 ? 7 : 0);  // the sphere has label 3, a slab label 7
+      }
+  const SurfelSet expected = extract_surfels(sphere);
+  for (const auto& [name, bytes, options] :
+       {std::tuple{"c.npy", npy("|u1", false, {24, 24, 24}, c_order), VolumeOptions{h}},
+        std::tuple{"f.npy", npy("|b1", true, {24, 24, 24}, f_order), VolumeOptions{h}},
+        std::tuple{"labels.npy", npy("<u2", false, {24, 24, 24}, labels), VolumeOptions{h, 3}}}) {
+    const VoxelSet v = read_npy_volume(write(name, bytes), options);
+    EXPECT_EQ(v.voxel_count(), sphere.voxel_count()) << name;
+    EXPECT_TRUE(v.contains(shift, shift, shift)) << name;
+    EXPECT_EQ(extract_surfels(v).size(), expected.size()) << name;
+  }
+  const VoxelSet slab = read_npy_volume(write("labels.npy", npy("<u2", false, {24, 24, 24}, labels)), VolumeOptions{0, 7});
+  EXPECT_EQ(slab.voxel_count(), 2 * n * n - 0);  // c = 0, 1: every (a, b) outside the sphere
+  EXPECT_DOUBLE_EQ(slab.h(), 1.0 / 24);
+}
+
+// Every malformed or unsupported file is refused with the file and the reason.
+TEST(Surface, BadNpyVolumesAreRefused) {
+  const std::string cube(8, '\1');
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"", "the file is empty"},
+      {"GIF89a....", "not a .npy file"},
+      {npy("|u1", false, {2, 2, 2}, "\1\1\1"), "truncated: the data holds 3 of 8 bytes"},
+      {npy("|u1", false, {4, 2}, cube), "a volume needs 3 dimensions, got 2"},
+      {npy("<f8", false, {1, 1, 1}, std::string(8, '\0')), "dtype '<f8' is not supported"},
+      {npy("|u1", false, {2, 0, 2}, ""), "the volume is empty"},
+      {npy("|u1", false, {2, 2, 2}, std::string(8, '\0')), "no voxel reaches the threshold"},
+      {npy("|u1", false, {100000, 100000, 100000}, ""), "above the limit"},
+      {std::string("\x93NUMPY\x01\x00\xff\xff", 10), "truncated header"},
+      {std::string("\x93NUMPY\x01\x00\x10\x00", 10) + "{'descr': '|u1'}", "no 'fortran_order'"},
+  };
+  for (const auto& [bytes, fragment] : cases) {
+    const std::string path = write("bad.npy", bytes);
+    const std::string message = error_of([&] { read_npy_volume(path); });
+    EXPECT_NE(message.find(fragment), std::string::npos) << "message: " << message;
+    EXPECT_NE(message.find("bad.npy"), std::string::npos) << message;
+  }
+  EXPECT_NE(error_of([] { read_npy_volume("/nonexistent/volume.npy"); }).find("cannot open"), std::string::npos);
 }

@@ -34,6 +34,8 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
       ->capture_default_str();
   app.add_option("--centre", o.centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--image", o.image, "Binary image instead of a shape: PBM, PGM (8/16 bit) or PNG");
+  app.add_option("--volume", o.volume, "digilap-spectrum: a 3-D .npy volume (bool, uint8, uint16) instead of a shape");
+  app.add_option("--label", o.label, "Volumes: the label of the object (default: every non-zero voxel)");
   if (with_h)
     app.add_option("--h", o.h, "Grid step h (default: 0.01 for shapes, 1/max(width, height) for images)")
         ->check(kPositiveFinite);

@@ -15,6 +15,8 @@ namespace digilap::app {
 struct FrontEndOptions {
   std::string shape = "flower";
   std::string image;            // a PBM/PGM/PNG file instead of a shape
+  std::string volume;           // a 3-D .npy file (digilap-spectrum): a surface from voxels
+  std::int64_t label = -1;      // volumes: foreground = this label (else every non-zero voxel)
   double rotate_degrees = 0.0;  // pose of the shape
   std::vector<double> centre;   // empty, or x, y
   double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images

@@ -6,6 +6,7 @@
 
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
+#include "digilap/surface/volume.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -27,13 +28,23 @@ bool is_surface(const std::string& spec) {
 // eigenvectors per surfel) and eigenvectors.svg.
 int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions& op_options, SpectrumOptions spectrum_options,
                      const std::string& out_dir, int draw, app::Progress& progress) {
-  const auto shape = surface::make_surface(fe.shape);
-  if (fe.rotate_degrees != 0 || !fe.centre.empty())
-    shape->set_pose(fe.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(fe.centre[0], fe.centre[1], 0),
-                    Eigen::AngleAxisd(fe.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
-  const double h = fe.h > 0 ? fe.h : 0.05;
-  progress.start("digitize + surfels");
-  const surface::VoxelSet voxels = surface::digitize(*shape, h);
+  std::unique_ptr<surface::Surface> shape;
+  surface::VoxelSet voxels;
+  progress.start(fe.volume.empty() ? "digitize + surfels" : "read volume + surfels");
+  if (fe.volume.empty()) {
+    shape = surface::make_surface(fe.shape);
+    if (fe.rotate_degrees != 0 || !fe.centre.empty())
+      shape->set_pose(fe.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(fe.centre[0], fe.centre[1], 0),
+                      Eigen::AngleAxisd(fe.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+    voxels = surface::digitize(*shape, fe.h > 0 ? fe.h : 0.05);
+  } else {
+    surface::VolumeOptions vo;
+    vo.h = fe.h;
+    vo.label = fe.label;
+    voxels = surface::read_npy_volume(fe.volume, vo);
+  }
+  const double h = voxels.h();
+  const std::string name = shape ? shape->name() : std::filesystem::path(fe.volume).filename().string();
   const surface::SurfelSet surfels = surface::extract_surfels(voxels);
   progress.finish();
   if (surfels.size() == 0) throw Error("the digitization at h = " + std::to_string(h) + " is empty: use a smaller h");
@@ -50,9 +61,10 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   const Spectrum s = smallest_eigenpairs(op.A, op.mass, spectrum_options);
   progress.finish();
   const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);
-  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g\n", shape->name().c_str(), h,
-              static_cast<long>(op.rows()), mu.total_area(), shape->area(), mu.length_scale, mu.normal_radius, op.t);
-  const bool sphere = shape->name() == "sphere";
+  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g\n", name.c_str(), h,
+              static_cast<long>(op.rows()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
+              mu.normal_radius, op.t);
+  const bool sphere = shape && shape->name() == "sphere";
   const double r2 = sphere ? shape->area() / (4 * 3.14159265358979323846) : 0;
   std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t, their Laplace-Beltrami estimates%s\n",
               sphere ? "; exact: l (l + 1) / r^2, multiplicity 2l + 1" : "");
@@ -84,7 +96,7 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   surface::save_ply(surfels, fields, out_dir + "/surfels.ply");
   if (!panels.empty())
     app::save_surface_panels(out_dir + "/eigenvectors.svg", surfels, normals.normals, panels, 4,
-                             "Eigenvectors of the digital Laplace-Beltrami operator, " + shape->name());
+                             "Eigenvectors of the digital Laplace-Beltrami operator, " + name);
   std::printf("\nwrote %s/eigenvalues.csv\nwrote %s/surfels.ply\nwrote %s/eigenvectors.svg\n", out_dir.c_str(), out_dir.c_str(),
               out_dir.c_str());
   return 0;
@@ -117,7 +129,7 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
-    if (is_surface(fe_options.shape)) {
+    if (is_surface(fe_options.shape) || !fe_options.volume.empty()) {
       if (matrix_free || per_contour) throw Error("--matrix-free and --per-contour are for curves; a surface has one operator");
       return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, progress);
     }

@@ -1,0 +1,33 @@
+// digilap — volumes in: NumPy .npy arrays (a segmentation, a binary volume) as voxel sets, the
+// 3D sibling of image.hpp. (NIfTI comes next.)
+#pragma once
+
+#include "digilap/surface/digitization.hpp"
+
+#include <cstdint>
+#include <string>
+
+namespace digilap::surface {
+
+struct VolumeOptions {
+  /// Grid step; 0 means 1 / (the largest dimension): the volume spans the unit cube.
+  double h = 0.0;
+  /// Foreground: value == label when label >= 0 (segmentations hold labels) ...
+  std::int64_t label = -1;
+  /// ... else value >= threshold (1: every non-zero voxel).
+  double threshold = 1.0;
+  /// Largest accepted number of voxels (checked from the header, before reading).
+  std::int64_t max_voxels = 2'000'000'000;
+};
+
+/// Reads a 3-D .npy array (bool, uint8 or uint16, C or Fortran order). Element [a, b, c] is
+/// voxel (i, j, k) = (c, b, a): the last axis is x, as in NumPy's (plane, row, column). Throws
+/// digilap::Error naming the file and the reason for: a missing, empty or truncated file, a
+/// wrong magic or header, a dtype or dimension that is not supported, a size above the limit,
+/// a bad threshold or h.
+VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& options = {});
+/// The same from bytes in memory (`name` is used in messages).
+VoxelSet decode_npy_volume(const std::uint8_t* data, std::size_t size, const std::string& name = "volume",
+                           const VolumeOptions& options = {});
+
+}  // namespace digilap::surface
