@@ -1,5 +1,7 @@
 #include "app_common.hpp"
 
+#include "digilap/surface/volume.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -152,6 +154,41 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   if (fe.measures.clamped_linels > 0 && !progress.quiet())
     std::fprintf(stderr, "warning: %zu linels got mu = 0 (normal orthogonal to the linel); k_R may be too large\n",
                  fe.measures.clamped_linels);
+  return fe;
+}
+
+bool is_surface_input(const FrontEndOptions& o) {
+  const std::string name = o.shape.substr(0, o.shape.find(':'));
+  return !o.volume.empty() || name == "sphere" || name == "ellipsoid" || name == "torus";
+}
+
+SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progress) {
+  SurfaceFrontEnd fe;
+  progress.start(o.volume.empty() ? "digitize + surfels" : "read volume + surfels");
+  if (o.volume.empty()) {
+    fe.shape = surface::make_surface(o.shape);
+    if (o.rotate_degrees != 0 || !o.centre.empty())
+      fe.shape->set_pose(o.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(o.centre[0], o.centre[1], 0),
+                         Eigen::AngleAxisd(o.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+    fe.voxels = surface::digitize(*fe.shape, o.h > 0 ? o.h : 0.05);
+    fe.name = fe.shape->name();
+  } else {
+    surface::VolumeOptions vo;
+    vo.h = o.h;
+    vo.label = o.label;
+    fe.voxels = surface::read_npy_volume(o.volume, vo);
+    fe.name = std::filesystem::path(o.volume).filename().string();
+  }
+  fe.surfels = surface::extract_surfels(fe.voxels);
+  progress.finish();
+  if (fe.surfels.size() == 0) throw Error("the digitization is empty: use a smaller h");
+  progress.start("normals");
+  const double k_R = o.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : o.k_R;
+  fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {k_R, o.length_scale});
+  progress.finish();
+  fe.measures = surface::measures(fe.surfels, fe.normals);
+  if (!progress.quiet())
+    std::fprintf(stderr, "length scale l = %.6g, II radius R = %.6g\n", fe.measures.length_scale, fe.measures.normal_radius);
   return fe;
 }
 

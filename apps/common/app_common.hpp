@@ -2,6 +2,7 @@
 #pragma once
 
 #include "digilap/digilap.hpp"
+#include "digilap/surface/measures.hpp"
 
 #include <CLI/CLI.hpp>
 
@@ -64,6 +65,21 @@ struct FrontEnd {
 
 /// Shape or image -> digital set -> contours -> normals -> measures, timed stage by stage.
 FrontEnd run_front_end(const FrontEndOptions& options, Progress& progress);
+
+/// Everything before a surface's operator (SPEC §7): a reference surface (--shape sphere,
+/// ellipsoid, torus with parameters; --rotate about z, --centre X,Y) digitized at h (default
+/// 0.05), or a .npy volume (--volume, --label); surfels, II normals (k_R: the surfaces' default
+/// 1 unless --kR was changed), areas.
+struct SurfaceFrontEnd {
+  std::unique_ptr<surface::Surface> shape;  // null for a volume
+  std::string name;
+  surface::VoxelSet voxels;
+  surface::SurfelSet surfels;
+  surface::SurfelNormals normals;
+  surface::SurfelMeasures measures;
+};
+bool is_surface_input(const FrontEndOptions& options);
+SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& options, Progress& progress);
 
 /// The heat Laplacian of the front end's contours, timed as the stage "operator".
 ContourOperator build_operator(const FrontEnd& fe, const HeatLaplacianOptions& options, Progress& progress);

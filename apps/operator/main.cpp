@@ -1,7 +1,11 @@
 // digilap-operator: shape -> L_h, written as Matrix Market files and a CSV of the elements.
 #include "../common/app_common.hpp"
 
+#include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/ply.hpp"
+
 #include <cstdio>
+#include <filesystem>
 #include <map>
 
 using namespace digilap;
@@ -29,6 +33,32 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
+    if (app::is_surface_input(fe_options)) {  // a surface or a volume: L, A, M and surfels.ply
+      const app::SurfaceFrontEnd sfe = app::run_surface_front_end(fe_options, progress);
+      progress.start("operator");
+      const surface::SurfaceOperator op = surface::heat_laplacian(sfe.surfels, sfe.measures, op_options);
+      progress.finish();
+      progress.start("write");
+      std::filesystem::create_directories(out_dir);
+      const std::string ext = format == FileFormat::Npz ? ".npz" : ".mtx";
+      std::vector<std::string> paths;
+      for (const auto& [name, m] : {std::pair<const char*, const SparseMatrix*>{"L", &op.L}, {"A", &op.A}, {"M", &op.M}}) {
+        if (m->rows() == 0) continue;
+        paths.push_back(out_dir + "/" + name + ext);
+        if (format == FileFormat::Npz) save_npz(*m, paths.back());
+        else save_matrix_market(*m, paths.back());
+      }
+      paths.push_back(out_dir + "/surfels.ply");
+      surface::save_ply(sfe.surfels, {{"mu", sfe.measures.mu}}, paths.back());
+      progress.finish();
+      std::printf("surface %s, h = %g: N = %ld surfels, nnz(L) = %ld, area %.8g", sfe.name.c_str(), sfe.voxels.h(),
+                  static_cast<long>(op.rows()), static_cast<long>(op.L.nonZeros()), sfe.measures.total_area());
+      if (sfe.shape) std::printf(" (exact %.8g)", sfe.shape->area());
+      std::printf("\nlength scale l = %.6g, II radius R = %.6g, t = %.6g, cut = k sqrt(t) = %.6g\n", sfe.measures.length_scale,
+                  sfe.measures.normal_radius, op.t, op.cut);
+      for (const auto& path : paths) std::printf("wrote %s\n", path.c_str());
+      return 0;
+    }
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     const ContourOperator op = app::build_operator(fe, op_options, progress);
     progress.start("write");

@@ -18,42 +18,18 @@ using namespace digilap;
 
 namespace {
 
-bool is_surface(const std::string& spec) {
-  const std::string name = spec.substr(0, spec.find(':'));
-  return name == "sphere" || name == "ellipsoid" || name == "torus";
-}
-
 // The 3D path (SPEC §7): surface -> voxels -> surfels -> II normals -> areas -> operator ->
 // the smallest eigenpairs of (A, M); a table, eigenvalues.csv, surfels.ply (mu and the
 // eigenvectors per surfel) and eigenvectors.svg.
 int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions& op_options, SpectrumOptions spectrum_options,
                      const std::string& out_dir, int draw, app::Progress& progress) {
-  std::unique_ptr<surface::Surface> shape;
-  surface::VoxelSet voxels;
-  progress.start(fe.volume.empty() ? "digitize + surfels" : "read volume + surfels");
-  if (fe.volume.empty()) {
-    shape = surface::make_surface(fe.shape);
-    if (fe.rotate_degrees != 0 || !fe.centre.empty())
-      shape->set_pose(fe.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(fe.centre[0], fe.centre[1], 0),
-                      Eigen::AngleAxisd(fe.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
-    voxels = surface::digitize(*shape, fe.h > 0 ? fe.h : 0.05);
-  } else {
-    surface::VolumeOptions vo;
-    vo.h = fe.h;
-    vo.label = fe.label;
-    voxels = surface::read_npy_volume(fe.volume, vo);
-  }
-  const double h = voxels.h();
-  const std::string name = shape ? shape->name() : std::filesystem::path(fe.volume).filename().string();
-  const surface::SurfelSet surfels = surface::extract_surfels(voxels);
-  progress.finish();
-  if (surfels.size() == 0) throw Error("the digitization at h = " + std::to_string(h) + " is empty: use a smaller h");
-  progress.start("normals");
-  // k_R: the surfaces' own default (1) unless --kR was changed from the curves' default.
-  const double k_R = fe.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : fe.k_R;
-  const surface::SurfelNormals normals = surface::ii_normals(voxels, surfels, {k_R, fe.length_scale});
-  progress.finish();
-  const surface::SurfelMeasures mu = surface::measures(surfels, normals);
+  const app::SurfaceFrontEnd sfe = app::run_surface_front_end(fe, progress);
+  const surface::SurfelSet& surfels = sfe.surfels;
+  const surface::SurfelNormals& normals = sfe.normals;
+  const auto& shape = sfe.shape;
+  const std::string& name = sfe.name;
+  const double h = sfe.voxels.h();
+  const surface::SurfelMeasures& mu = sfe.measures;
   progress.start("operator");
   const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
   progress.finish();
@@ -129,7 +105,7 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
-    if (is_surface(fe_options.shape) || !fe_options.volume.empty()) {
+    if (app::is_surface_input(fe_options)) {
       if (matrix_free || per_contour) throw Error("--matrix-free and --per-contour are for curves; a surface has one operator");
       return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, progress);
     }
