@@ -114,6 +114,8 @@ const std::vector<Case> kCases = {
     {"volume_truncated", "spectrum", "--volume {dir}/volume_truncated.img", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '|u1', 'fortran_order': False, 'shape': (9, 9, 9), }" + std::string(8, ' ') + "\n" + std::string(5, '\1'), false, "truncated: the data holds"},
     {"volume_wrong_dtype", "spectrum", "--volume {dir}/volume_wrong_dtype.img", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 1, 1), }" + std::string(8, ' ') + "\n" + std::string(4, '\0'), false, "dtype '<f4' is not supported"},
     {"surface_operator_npz", "operator", "--shape torus --h 0.1 --format npz --out {dir}/torus", "", true, "torus/surfels.ply"},
+    {"surface_convergence", "convergence", "--shape torus --h 0.2 0.15 --out {dir}/cv3", "", true, "| exact | "},
+    {"surface_convergence_function", "convergence", "--shape sphere --function cos1", "", false, "test functions are x2 and xy"},
     {"matrix_free_euclidean", "spectrum", "--matrix-free --distance euclidean", "", false, "only the geodesic distance"},
     {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
     {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},

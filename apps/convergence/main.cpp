@@ -3,6 +3,8 @@
 #include "../common/app_common.hpp"
 #include "../common/svg_plot.hpp"
 
+#include "digilap/surface/heat_laplacian.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -10,6 +12,100 @@
 #include <tuple>
 
 using namespace digilap;
+
+namespace {
+
+// The 3D experiment (SPEC §7): the surface's operator on g = x^2 or xy (coordinates relative to
+// the centre), II normals ("ii") or exact ones ("exact"), against Delta_S g = tr(Hess g) -
+// <n, Hess g n> - 2 H <grad g, n> at the closest points; a table, convergence.csv and the
+// log-log figure.
+int surface_convergence(const std::string& spec, const std::string& function, std::vector<double> steps,
+                        const HeatLaplacianOptions& base, double k_R, double length_scale, const std::vector<double>& centre,
+                        double rotate_degrees, const std::string& out_dir, app::Progress& progress) {
+  if (function != "x2" && function != "xy") throw Error("on surfaces the test functions are x2 and xy, got '" + function + "'");
+  auto shape = surface::make_surface(spec);
+  const Eigen::Vector3d c = centre.empty() ? Eigen::Vector3d(0.0123, -0.0371, 0.0217) : Eigen::Vector3d(centre[0], centre[1], 0);
+  shape->set_pose(c, Eigen::AngleAxisd(rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+  const double kR = k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : k_R;
+  struct Row {
+    double h, t, l, error;
+    std::string variant;
+    Eigen::Index n, nnz;
+  };
+  std::vector<Row> rows;
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    const double h = steps[s];
+    const surface::VoxelSet voxels = surface::digitize(*shape, h);
+    const surface::SurfelSet surfels = surface::extract_surfels(voxels);
+    const surface::SurfelNormals ii = surface::ii_normals(voxels, surfels, {kR, length_scale});
+    for (const std::string variant : {"ii", "exact"}) {
+      const surface::SurfelNormals normals = variant == "ii" ? ii : surface::exact_normals(*shape, surfels, ii.length_scale);
+      const surface::SurfaceOperator op = surface::heat_laplacian(surfels, surface::measures(surfels, normals), base);
+      Eigen::VectorXd g(op.rows()), lap(op.rows());
+      for (Eigen::Index i = 0; i < op.rows(); ++i) {
+        const Eigen::Vector3d p = shape->closest_point(op.positions.row(i).transpose()), q = p - c, n = shape->normal(p);
+        const double H = shape->mean_curvature(p);
+        if (function == "x2") g[i] = q.x() * q.x(), lap[i] = 2 - 2 * n.x() * n.x() - 2 * H * 2 * q.x() * n.x();
+        else g[i] = q.x() * q.y(), lap[i] = -2 * n.x() * n.y() - 2 * H * (q.y() * n.x() + q.x() * n.y());
+      }
+      rows.push_back({h, op.t, ii.length_scale, (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff(), variant,
+                      op.rows(), op.L.nonZeros()});
+    }
+    progress.bar("sweep", static_cast<double>(s + 1) / static_cast<double>(steps.size()));
+  }
+  progress.end_bar();
+  std::printf("# %s, g = %s, R = %g h^(1/3) l^(2/3), t = %g h^(2/3) l^(4/3), k = %g, l %s\n", shape->name().c_str(),
+              function.c_str(), kR, base.c_t, base.k, length_scale > 0 ? "given" : "measured at each h");
+  std::printf("| h | normals | N | nnz | l | t | rel max err |\n|---|---|---|---|---|---|---|\n");
+  for (const Row& r : rows)
+    std::printf("| %g | %s | %ld | %ld | %.3g | %.3g | %.3f%% |\n", r.h, r.variant.c_str(), static_cast<long>(r.n),
+                static_cast<long>(r.nnz), r.l, r.t, 100 * r.error);
+  std::filesystem::create_directories(out_dir);
+  std::ofstream csv(out_dir + "/convergence.csv");
+  if (!csv) throw Error("cannot write '" + out_dir + "/convergence.csv'");
+  csv << "surface,function,h,normals,N,nnz,length_scale,t,relative_max_error\n";
+  csv.precision(10);
+  app::LogLogPlot plot;
+  plot.title = "Laplace-Beltrami of " + function + " on the " + shape->name() + " (max error / max |Δg|)";
+  plot.x_label = "grid step h";
+  plot.y_label = "relative max error";
+  std::printf("\n| normals | rel max err at h = %g | slope (all h) |\n|---|---|---|\n", steps.back());
+  for (const std::string variant : {"ii", "exact"}) {
+    app::PlotSeries series;
+    for (const Row& r : rows)
+      if (r.variant == variant) {
+        series.x.push_back(r.h), series.y.push_back(r.error);
+        csv << shape->name() << ',' << function << ',' << r.h << ',' << variant << ',' << r.n << ',' << r.nnz << ',' << r.l << ','
+            << r.t << ',' << r.error << '\n';
+      }
+    const double slope = app::loglog_slope(series.x, series.y, 0, series.x.size());
+    char label[96];
+    if (series.x.size() < 2) std::snprintf(label, sizeof label, "heat, %s normals (one step: no slope)", variant.c_str());
+    else std::snprintf(label, sizeof label, "heat, %s normals (%.2f)", variant.c_str(), slope);
+    series.label = label;
+    std::printf("| %s | %.3f%% | %s |\n", variant.c_str(), 100 * series.y.back(),
+                series.x.size() < 2 ? "one step: no slope" : std::to_string(slope).substr(0, 4).c_str());
+    plot.series.push_back(series);
+  }
+  const double anchor = plot.series.front().y.back(), hmin = steps.back(), hmax = steps.front();
+  app::PlotSeries one;
+  one.label = "slope 1";
+  one.dash = "12,3,2,3";
+  one.markers = false;
+  one.x = {hmin, hmax};
+  one.y = {anchor, anchor * (hmax / hmin)};
+  plot.series.push_back(one);
+  plot.save(out_dir + "/convergence.svg");
+  std::printf("\nwrote %s/convergence.csv\nwrote %s/convergence.svg\n", out_dir.c_str(), out_dir.c_str());
+  return 0;
+}
+
+bool names_a_surface(const std::string& spec) {
+  const std::string name = spec.substr(0, spec.find(':'));
+  return name == "sphere" || name == "ellipsoid" || name == "torus";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{"digilap-convergence: max error of digital Laplace-Beltrami operators vs h (paper's Fig. 5).\n"
@@ -32,7 +128,9 @@ int main(int argc, char** argv) {
   app.add_option("--rotate", rotate_degrees, "Rotate the shape by this angle (degrees, counter-clockwise)")->capture_default_str();
   app.add_option("--centre", centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--function", function, "Test function: x2, xy, cos1 .. cos9 (cos(2 pi m s / P))")->capture_default_str();
-  app.add_option("--h", steps, "Grid steps, coarse to fine")->capture_default_str()->expected(1, 100);
+  auto* h_option = app.add_option("--h", steps, "Grid steps, coarse to fine (surfaces: 0.1 0.07 0.05 0.035 0.025)")
+                       ->capture_default_str()
+                       ->expected(1, 100);
   app.add_option("--operators", operators, "Operators to compare: " + variants)->capture_default_str()->expected(1, 20);
   app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->capture_default_str();
   app.add_option("--ct", base.c_t, "Heat time t = ct h^(2/3) l^(4/3)")->capture_default_str();
@@ -51,6 +149,14 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
+    if (names_a_surface(shape_name)) {
+      if (h_option->count() == 0) steps = {0.1, 0.07, 0.05, 0.035, 0.025};
+      std::sort(steps.begin(), steps.end(), std::greater<>());
+      for (double h : steps)
+        if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
+      app::Progress progress(quiet);
+      return surface_convergence(shape_name, function, steps, base, k_R, length_scale, centre, rotate_degrees, out_dir, progress);
+    }
     auto shape = make_shape(shape_name);
     if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
     if (rotate_degrees != 0 || !centre.empty())
