@@ -342,3 +342,45 @@ TEST(Surface, BadNpyVolumesAreRefused) {
   }
   EXPECT_NE(error_of([] { read_npy_volume("/nonexistent/volume.npy"); }).find("cannot open"), std::string::npos);
 }
+
+// Connected surfaces: one per surface of the set; voxels meeting by an edge or a corner only
+// are separate objects (6-connected), a hole through an object (the torus) is one surface.
+TEST(Surface, ConnectedSurfacesAndFilters) {
+  using V = std::vector<Eigen::Vector3i>;
+  auto components = [](const V& voxels) {
+    const VoxelSet set = VoxelSet::from_voxels(1.0, voxels);
+    return connected_surfaces(set, extract_surfels(set)).sizes;
+  };
+  EXPECT_EQ(components(V{{0, 0, 0}}), (std::vector<std::size_t>{6}));
+  EXPECT_EQ(components(V{{0, 0, 0}, {1, 0, 0}}), (std::vector<std::size_t>{10}));       // face-adjacent: one box
+  EXPECT_EQ(components(V{{0, 0, 0}, {1, 1, 0}}), (std::vector<std::size_t>{6, 6}));     // by an edge: apart
+  EXPECT_EQ(components(V{{0, 0, 0}, {1, 1, 1}}), (std::vector<std::size_t>{6, 6}));     // by a corner: apart
+  V shell;  // a hollow 5^3 cube: an outer and an inner surface
+  for (int k = 0; k < 5; ++k)
+    for (int j = 0; j < 5; ++j)
+      for (int i = 0; i < 5; ++i)
+        if (i % 4 == 0 || j % 4 == 0 || k % 4 == 0) shell.emplace_back(i, j, k);
+  EXPECT_EQ(components(shell), (std::vector<std::size_t>{150, 54}));
+  // Two spheres and a speck: filters by size and largest.
+  Sphere big, small(0.5);
+  big.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  small.set_pose(kCentre + Eigen::Vector3d(3, 0, 0), Eigen::Matrix3d::Identity());
+  V voxels;
+  for (const Surface* s : {static_cast<const Surface*>(&big), static_cast<const Surface*>(&small)}) {
+    const VoxelSet v = digitize(*s, 0.1);
+    for (std::int32_t k = v.k_begin(); k < v.k_end(); ++k)
+      for (std::int32_t j = v.j_begin(); j < v.j_end(); ++j)
+        for (const digilap::Run* r = v.row_begin(j, k); r != v.row_end(j, k); ++r)
+          for (std::int32_t i = r->begin; i < r->end; ++i) voxels.emplace_back(i, j, k);
+  }
+  voxels.emplace_back(0, 40, 0);
+  const VoxelSet set = VoxelSet::from_voxels(0.1, voxels);
+  const SurfelSet all = extract_surfels(set);
+  const std::vector<std::size_t> sizes = connected_surfaces(set, all).sizes;
+  ASSERT_EQ(sizes.size(), 3u);
+  EXPECT_EQ(filter_surfels(set, all, {7, false}).dropped, 1u);  // the speck's 6 surfels
+  const FilteredSurfels largest = filter_surfels(set, all, {0, true});
+  EXPECT_EQ(largest.dropped, 2u);
+  EXPECT_EQ(largest.surfels.size(), extract_surfels(digitize(big, 0.1)).size());
+  EXPECT_EQ(connected_surfaces(digitize(*posed(make_surface("torus")), 0.07), extract_surfels(digitize(*posed(make_surface("torus")), 0.07))).sizes.size(), 1u);
+}

@@ -43,8 +43,9 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
         ->check(kPositiveFinite);
   app.add_option("--threshold", o.threshold, "Images: foreground = value < threshold * maxval")->capture_default_str();
   app.add_flag("--invert", o.invert, "Images: foreground = value >= threshold * maxval (light objects)");
-  app.add_flag("--largest", o.largest, "Images: keep the largest contour only");
-  app.add_option("--min-linels", o.min_linels, "Images: drop contours with fewer linels")->capture_default_str();
+  app.add_flag("--largest", o.largest, "Images and volumes: keep the largest contour (surface) only");
+  app.add_option("--min-linels", o.min_linels, "Images and volumes: drop contours (surfaces) with fewer linels (surfels)")
+      ->capture_default_str();
   app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->capture_default_str();
   app.add_option("--length-scale", o.length_scale,
                  "Length scale l of R and of the default t (0: measured on the shape's pixels, a robust small "
@@ -179,8 +180,13 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     fe.voxels = surface::read_npy_volume(o.volume, vo);
     fe.name = std::filesystem::path(o.volume).filename().string();
   }
-  fe.surfels = surface::extract_surfels(fe.voxels);
+  // The connected surfaces, filtered as contours are: --largest, and --min-linels as surfels.
+  surface::FilteredSurfels kept = surface::filter_surfels(fe.voxels, surface::extract_surfels(fe.voxels), {o.min_linels, o.largest});
+  fe.surfels = std::move(kept.surfels);
   progress.finish();
+  if (kept.dropped > 0 && !progress.quiet())
+    std::fprintf(stderr, "warning: dropped %zu surface(s)%s\n", kept.dropped,
+                 o.largest ? " (keeping the largest only)" : (" with fewer than " + std::to_string(o.min_linels) + " surfels").c_str());
   if (fe.surfels.size() == 0) throw Error("the digitization is empty: use a smaller h");
   progress.start("normals");
   const double k_R = o.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : o.k_R;

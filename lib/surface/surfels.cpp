@@ -1,6 +1,8 @@
 #include "digilap/surface/surfels.hpp"
 
 #include <algorithm>
+#include <numeric>
+#include <unordered_map>
 
 namespace digilap::surface {
 
@@ -69,6 +71,81 @@ SurfelSet extract_surfels(const VoxelSet& set) {
   for (const auto& row : per_row) total += row.size();
   out.surfels.reserve(total);
   for (const auto& row : per_row) out.surfels.insert(out.surfels.end(), row.begin(), row.end());
+  return out;
+}
+
+namespace {
+struct SurfelKey {
+  std::uint64_t operator()(const Surfel& f) const {
+    auto part = [](std::int32_t v) { return static_cast<std::uint64_t>(static_cast<std::uint32_t>(v) & 0x1fffffu); };
+    return part(f.voxel.x()) ^ (part(f.voxel.y()) << 21) ^ (part(f.voxel.z()) << 42) ^
+           (static_cast<std::uint64_t>(f.axis * 2 + (f.sign > 0)) << 61);
+  }
+};
+struct SurfelEqual {
+  bool operator()(const Surfel& a, const Surfel& b) const { return a.voxel == b.voxel && a.axis == b.axis && a.sign == b.sign; }
+};
+}  // namespace
+
+SurfelComponents connected_surfaces(const VoxelSet& set, const SurfelSet& surfels) {
+  const std::size_t n = surfels.size();
+  std::unordered_map<Surfel, std::size_t, SurfelKey, SurfelEqual> index;
+  index.reserve(n);
+  for (std::size_t s = 0; s < n; ++s) index.emplace(surfels.surfels[s], s);
+  std::vector<std::size_t> parent(n);
+  std::iota(parent.begin(), parent.end(), std::size_t(0));
+  auto root = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto inside = [&](const Eigen::Vector3i& v) { return set.contains(v.x(), v.y(), v.z()); };
+  for (std::size_t s = 0; s < n; ++s) {
+    const Surfel& f = surfels.surfels[s];
+    for (int c = 0; c < 3; ++c) {
+      if (c == f.axis) continue;
+      for (int d : {-1, 1}) {
+        Eigen::Vector3i side = f.voxel, diagonal;
+        side[c] += d;
+        diagonal = side;
+        diagonal[f.axis] += f.sign;
+        Surfel next;
+        if (inside(side) && inside(diagonal)) next = {diagonal, static_cast<std::int8_t>(c), static_cast<std::int8_t>(-d)};  // concave
+        else if (inside(side)) next = {side, f.axis, f.sign};                                                                // flat
+        else next = {f.voxel, static_cast<std::int8_t>(c), static_cast<std::int8_t>(d)};                                     // convex
+        const auto it = index.find(next);
+        if (it == index.end()) continue;  // cannot happen on a set's own surfels
+        const std::size_t a = root(s), b = root(it->second);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      }
+    }
+  }
+  SurfelComponents out;
+  out.of_surfel.assign(n, -1);
+  for (std::size_t s = 0; s < n; ++s) {
+    const std::size_t r = root(s);
+    if (r == s) {
+      out.of_surfel[s] = static_cast<int>(out.sizes.size());
+      out.sizes.push_back(0);
+    } else {
+      out.of_surfel[s] = out.of_surfel[r];
+    }
+    ++out.sizes[static_cast<std::size_t>(out.of_surfel[s])];
+  }
+  return out;
+}
+
+FilteredSurfels filter_surfels(const VoxelSet& set, const SurfelSet& surfels, const SurfelFilter& filter) {
+  const SurfelComponents components = connected_surfaces(set, surfels);
+  std::vector<bool> keep(components.sizes.size());
+  const auto largest = static_cast<std::size_t>(
+      std::max_element(components.sizes.begin(), components.sizes.end()) - components.sizes.begin());
+  for (std::size_t c = 0; c < keep.size(); ++c)
+    keep[c] = components.sizes[c] >= filter.min_surfels && (!filter.largest_only || c == largest);
+  FilteredSurfels out;
+  out.surfels.h = surfels.h;
+  for (std::size_t s = 0; s < surfels.size(); ++s)
+    if (keep[static_cast<std::size_t>(components.of_surfel[s])]) out.surfels.surfels.push_back(surfels.surfels[s]);
+  out.dropped = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), false));
   return out;
 }
 

@@ -31,6 +31,26 @@ struct SurfelSet {
   Eigen::MatrixX3d centres() const;
 };
 
+/// Connected surfaces: surfels sharing an edge on the same sheet of the boundary. Across an
+/// edge the next surfel is taken concave first, then flat, then convex, except that two voxels
+/// meeting by an edge only are kept apart (the set is 6-connected, as the 2D contours keep
+/// pixels meeting by a corner apart).
+struct SurfelComponents {
+  std::vector<int> of_surfel;       ///< component of each surfel, numbered by their first surfel
+  std::vector<std::size_t> sizes;   ///< surfels per component
+};
+SurfelComponents connected_surfaces(const VoxelSet& set, const SurfelSet& surfels);
+
+struct SurfelFilter {
+  std::size_t min_surfels = 0;  ///< drop the surfaces with fewer surfels
+  bool largest_only = false;    ///< keep only the surface with the most surfels
+};
+struct FilteredSurfels {
+  SurfelSet surfels;        ///< the kept surfels, in their original order
+  std::size_t dropped = 0;  ///< surfaces dropped
+};
+FilteredSurfels filter_surfels(const VoxelSet& set, const SurfelSet& surfels, const SurfelFilter& filter);
+
 /// Every surfel of the set, row by row ((k, j) ascending, then i): the order depends only on
 /// the set. Parallel over rows; each face found from the runs of the voxel's row and of its
 /// four neighbouring rows (no voxel loop).
