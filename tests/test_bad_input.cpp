@@ -117,6 +117,7 @@ const std::vector<Case> kCases = {
     {"surface_convergence", "convergence", "--shape torus --h 0.2 0.15 --out {dir}/cv3", "", true, "| exact | "},
     {"surface_convergence_function", "convergence", "--shape sphere --function cos1", "", false, "test functions are x2 and xy"},
     {"volume_labels_largest", "operator", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --largest --kR 0.5 --length-scale 1 --out {dir}/lab", "", true, "surfels.ply"},
+    {"surface_heat", "heat", "--shape sphere --h 0.15 --tau 0.2 --steps 10 --snapshots 3 --out {dir}/heat3", "", true, "heat.ply"},
     {"matrix_free_euclidean", "spectrum", "--matrix-free --distance euclidean", "", false, "only the geodesic distance"},
     {"tau_negative", "heat", "--tau -1", "", false, "--tau must be > 0"},
     {"steps_zero", "heat", "--steps 0", "", false, "--steps must be >= 1"},
