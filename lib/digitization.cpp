@@ -1,6 +1,7 @@
 #include "digilap/digitization.hpp"
 
 #include "digilap/error.hpp"
+#include "runs.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -13,20 +14,6 @@ namespace {
 
 void check_step(double h) { require_positive("grid step h", h); }
 
-// Sorts runs and merges the overlapping or touching ones.
-void normalize(std::vector<Run>& runs) {
-  runs.erase(std::remove_if(runs.begin(), runs.end(), [](const Run& r) { return r.end <= r.begin; }),
-             runs.end());
-  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
-  std::size_t out = 0;
-  for (std::size_t k = 0; k < runs.size(); ++k) {
-    if (out > 0 && runs[k].begin <= runs[out - 1].end)
-      runs[out - 1].end = std::max(runs[out - 1].end, runs[k].end);
-    else
-      runs[out++] = runs[k];
-  }
-  runs.resize(out);
-}
 
 std::string index_range() { return "[-" + std::to_string(kMaxPixelIndex) + ", " + std::to_string(kMaxPixelIndex) + "]"; }
 
@@ -93,7 +80,7 @@ DigitalSet DigitalSet::from_rows(double h, std::int32_t row_begin, std::vector<s
   DigitalSet set(h);
   std::size_t run_total = 0;
   for (auto& r : rows) {
-    normalize(r);
+    detail::normalize_runs(r);
     run_total += r.size();
   }
   // Drop empty rows at both ends so that row_begin()/row_end() are tight.

@@ -1,6 +1,7 @@
 #include "digilap/shapes.hpp"
 
 #include "digilap/error.hpp"
+#include "shape_parameters.hpp"
 
 #include <algorithm>
 #include <array>
@@ -363,15 +364,6 @@ const std::vector<ShapeKind>& shape_kinds() {
   return kinds;
 }
 
-double parse_number(const std::string& shape, const std::string& key, const std::string& text) {
-  double v = 0;
-  const char* first = text.data() + (!text.empty() && text[0] == '+' ? 1 : 0);
-  const auto [end, ec] = std::from_chars(first, text.data() + text.size(), v);
-  if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
-    throw Error(shape + ": " + key + " = '" + text + "' is not a finite number");
-  return v;
-}
-
 }  // namespace
 
 std::unique_ptr<Shape> make_shape(const std::string& spec) {
@@ -383,32 +375,20 @@ std::unique_ptr<Shape> make_shape(const std::string& spec) {
     for (const auto& n : shape_names()) known += (known.empty() ? "" : ", ") + n;
     throw Error("unknown shape '" + name + "' (known shapes: " + known + ")");
   }
-  std::map<std::string, double> value;
-  std::string keys;
-  for (const auto& [key, fallback] : kind->keys) value[key] = fallback, keys += (keys.empty() ? "" : ", ") + std::string(key);
-  std::set<std::string> given;
-  if (colon != std::string::npos) {
-    std::stringstream list(spec.substr(colon + 1));
-    std::string item;
-    while (std::getline(list, item, ',')) {
-      const std::size_t eq = item.find('=');
-      const std::string key = item.substr(0, eq);
-      if (eq == std::string::npos || !value.count(key))
-        throw Error(name + ": unknown parameter '" + key + "' (" + name + " takes " + keys + ", as key=value separated by commas)");
-      if (!given.insert(key).second) throw Error(name + ": parameter '" + key + "' is given twice");
-      value[key] = parse_number(name, key, item.substr(eq + 1));
-    }
-  }
+  std::vector<std::pair<std::string, double>> value;
+  for (const auto& [key, fallback] : kind->keys) value.emplace_back(key, fallback);
+  if (colon != std::string::npos) detail::read_shape_parameters(name, spec.substr(colon + 1), value);
   auto whole = [&](const char* key) {
-    const double v = value[key];
+    const double v = detail::parameter(value, key);
     if (!(v >= 1 && v <= 1e6 && v == std::floor(v)))
       throw Error(name + ": " + key + " must be a whole number from 1 to 1000000, got " + std::to_string(v));
     return static_cast<int>(v);
   };
-  if (name == "circle") return std::make_unique<Circle>(value["r"]);
-  if (name == "ellipse") return std::make_unique<Ellipse>(value["a"], value["b"]);
-  if (name == "flower") return std::make_unique<Flower>(value["R"], value["v"], whole("k"), value["phase"]);
-  return std::make_unique<AccFlower>(value["R"], value["v"], whole("k"));
+  auto get = [&](const char* key) { return detail::parameter(value, key); };
+  if (name == "circle") return std::make_unique<Circle>(get("r"));
+  if (name == "ellipse") return std::make_unique<Ellipse>(get("a"), get("b"));
+  if (name == "flower") return std::make_unique<Flower>(get("R"), get("v"), whole("k"), get("phase"));
+  return std::make_unique<AccFlower>(get("R"), get("v"), whole("k"));
 }
 
 std::string shape_syntax() {

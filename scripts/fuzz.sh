@@ -11,7 +11,7 @@ seconds="${1:-60}"
 ./scripts/setup.sh clang libclang-rt-dev
 mkdir -p build-fuzz
 srcs=(lib/image.cpp lib/digitization.cpp lib/contour.cpp lib/normals.cpp lib/measures.cpp lib/shapes.cpp lib/disk_moments.cpp
-      lib/length_scale.cpp)
+      lib/length_scale.cpp lib/shape_parameters.cpp)
 # No OpenMP here: one thread per input is what libFuzzer wants; the pragmas are ignored.
 flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -Wno-unknown-pragmas
        -Iinclude -I/usr/include/eigen3)
@@ -19,7 +19,7 @@ flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
 clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/png_decode.cpp -o build-fuzz/png_decode.o
 clang++ "${flags[@]}" "${srcs[@]}" tests/fuzz/fuzz_image.cpp build-fuzz/png_decode.o -o build-fuzz/fuzz_image
 volume_srcs=(lib/surface/volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
-             lib/surface/measures.cpp lib/surface/shapes.cpp lib/digitization.cpp lib/shapes.cpp)
+             lib/surface/measures.cpp lib/surface/shapes.cpp lib/digitization.cpp lib/shapes.cpp lib/shape_parameters.cpp)
 clang++ "${flags[@]}" "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -o build-fuzz/fuzz_volume
 status=0
 run_target() {  # run_target <name> <seed corpus> <seconds>

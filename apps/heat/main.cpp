@@ -21,6 +21,28 @@ constexpr double kPi = 3.14159265358979323846;
 
 namespace {
 
+// The flow from u0 for `steps` steps to tau, keeping `snapshots` states at equal times (tau = 0
+// included): snapshot k after round(k steps / (snapshots - 1)) steps.
+struct Snapshots {
+  std::vector<Eigen::VectorXd> values;
+  std::vector<double> times;
+};
+Snapshots run_flow(const HeatFlow& flow, const Eigen::VectorXd& u0, double tau, int steps, int snapshots, app::Progress& progress) {
+  Snapshots out{{u0}, {0.0}};
+  Eigen::VectorXd u = u0;
+  for (int s = 1; s <= steps; ++s) {
+    u = flow.step(u);
+    const int k = static_cast<int>(out.times.size());
+    if (s == static_cast<int>(std::lround(static_cast<double>(k) * steps / (snapshots - 1)))) {
+      out.values.push_back(u);
+      out.times.push_back(tau * s / steps);
+    }
+    progress.bar("heat flow", static_cast<double>(s) / steps);
+  }
+  progress.end_bar();
+  return out;
+}
+
 // Heat flow on a surface (SPEC §7): the same scheme on the surface operator's (A, M). Initial
 // temperature: cosine = the x coordinate about the centroid (on a sphere the first mode, which
 // decays like exp(-2 tau / r^2)), bump = a Gaussian around the first surfel, dirac = unit heat on
@@ -47,16 +69,7 @@ int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOpti
   progress.start("factorize");
   const HeatFlow flow(op.A, op.mass.cwiseMax(0.0), tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
   progress.finish();
-  std::vector<Eigen::VectorXd> snaps{u0};
-  std::vector<double> times{0.0};
-  Eigen::VectorXd u = u0;
-  for (int s = 1; s <= steps; ++s) {
-    u = flow.step(u);
-    const int k = static_cast<int>(times.size());
-    if (s == static_cast<int>(std::lround(static_cast<double>(k) * steps / (snapshots - 1)))) snaps.push_back(u), times.push_back(tau * s / steps);
-    progress.bar("heat flow", static_cast<double>(s) / steps);
-  }
-  progress.end_bar();
+  const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
   const bool sphere = fe.shape && fe.shape->name() == "sphere";
   const double first = sphere ? 2 / (fe.shape->area() / (4 * kPi)) : 0, a0 = modal_amplitude(u0, mode, op.mass);
   std::printf("# %s, h = %g, N = %ld surfels, l = %.4g, R = %.4g, t = %.4g, scheme %s, dt = %g\n", fe.name.c_str(), fe.voxels.h(),
@@ -148,20 +161,7 @@ int main(int argc, char** argv) {
     progress.start("factorize");
     const HeatFlow flow(op, tau / steps, scheme == "euler" ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
     progress.finish();
-    std::vector<Eigen::VectorXd> snaps{u0};
-    std::vector<double> times{0.0};
-    Eigen::VectorXd u = u0;
-    for (int s = 1; s <= steps; ++s) {
-      u = flow.step(u);
-      // Snapshot k (k = 1 .. snapshots - 1) after round(k * steps / (snapshots - 1)) steps.
-      const int k = static_cast<int>(times.size());
-      if (s == static_cast<int>(std::lround(static_cast<double>(k) * steps / (snapshots - 1)))) {
-        snaps.push_back(u);
-        times.push_back(tau * s / steps);
-      }
-      progress.bar("heat flow", static_cast<double>(s) / steps);
-    }
-    progress.end_bar();
+    const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
 
     const double omega2 = std::pow(2 * kPi / P, 2), a0 = modal_amplitude(u0, mode, op.mass);
     std::printf("# %s, h = %g, N = %ld, l = %.4g, R = %.4g, t = %.4g, P (estimated) = %.8g, scheme %s, dt = %g\n",

@@ -1,6 +1,7 @@
 #include "digilap/surface/digitization.hpp"
 
 #include "digilap/error.hpp"
+#include "../runs.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,16 +10,6 @@
 namespace digilap::surface {
 
 namespace {
-void normalize(std::vector<Run>& runs) {
-  runs.erase(std::remove_if(runs.begin(), runs.end(), [](const Run& r) { return r.end <= r.begin; }), runs.end());
-  std::sort(runs.begin(), runs.end(), [](const Run& a, const Run& b) { return a.begin < b.begin; });
-  std::size_t out = 0;
-  for (std::size_t k = 0; k < runs.size(); ++k) {
-    if (out > 0 && runs[k].begin <= runs[out - 1].end) runs[out - 1].end = std::max(runs[out - 1].end, runs[k].end);
-    else runs[out++] = runs[k];
-  }
-  runs.resize(out);
-}
 void check_index(const char* what, std::int64_t v) {
   if (v < -kMaxPixelIndex || v > kMaxPixelIndex)
     throw Error(std::string("voxel set: ") + what + " index " + std::to_string(v) + " is outside [-" +
@@ -67,7 +58,7 @@ VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::in
   set.j0_ = j0, set.k0_ = k0, set.nj_ = nj, set.nk_ = nk;
   set.row_offset_.assign(rows.size() + 1, 0);
   for (std::size_t r = 0; r < rows.size(); ++r) {
-    normalize(rows[r]);
+    detail::normalize_runs(rows[r]);
     if (!rows[r].empty()) check_index("column i", rows[r].front().begin), check_index("column i", std::int64_t(rows[r].back().end) - 1);
     set.runs_.insert(set.runs_.end(), rows[r].begin(), rows[r].end());
     set.row_offset_[r + 1] = static_cast<std::int64_t>(set.runs_.size());

@@ -1,6 +1,7 @@
 #include "digilap/surface/shapes.hpp"
 
 #include "digilap/error.hpp"
+#include "../shape_parameters.hpp"
 
 #include <unsupported/Eigen/Polynomials>
 
@@ -218,29 +219,16 @@ std::vector<double> Torus::local_crossings(const Eigen::Vector3d& q0, const Eige
 std::unique_ptr<Surface> make_surface(const std::string& spec) {
   const std::size_t colon = spec.find(':');
   const std::string name = spec.substr(0, colon);
-  std::map<std::string, double> value;
+  std::vector<std::pair<std::string, double>> value;  // SPEC §7's reference parameters
   if (name == "sphere") value = {{"r", 1.0}};
   else if (name == "ellipsoid") value = {{"a", 1.2}, {"b", 1.0}, {"c", 0.8}};
   else if (name == "torus") value = {{"R", 1.0}, {"r", 0.4}};
   else throw Error("unknown surface '" + name + "' (known surfaces: sphere, ellipsoid, torus)");
-  if (colon != std::string::npos) {
-    std::stringstream list(spec.substr(colon + 1));
-    std::string item;
-    while (std::getline(list, item, ',')) {
-      const std::size_t eq = item.find('=');
-      const std::string key = item.substr(0, eq);
-      if (eq == std::string::npos || !value.count(key)) throw Error(name + ": unknown parameter '" + key + "'");
-      double v = 0;
-      const std::string text = item.substr(eq + 1);
-      const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-      if (text.empty() || ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v))
-        throw Error(name + ": " + key + " = '" + text + "' is not a finite number");
-      value[key] = v;
-    }
-  }
-  if (name == "sphere") return std::make_unique<Sphere>(value["r"]);
-  if (name == "ellipsoid") return std::make_unique<Ellipsoid>(value["a"], value["b"], value["c"]);
-  return std::make_unique<Torus>(value["R"], value["r"]);
+  if (colon != std::string::npos) detail::read_shape_parameters(name, spec.substr(colon + 1), value);
+  auto get = [&](const char* key) { return detail::parameter(value, key); };
+  if (name == "sphere") return std::make_unique<Sphere>(get("r"));
+  if (name == "ellipsoid") return std::make_unique<Ellipsoid>(get("a"), get("b"), get("c"));
+  return std::make_unique<Torus>(get("R"), get("r"));
 }
 
 }  // namespace digilap::surface
