@@ -19,7 +19,8 @@ HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt
   for (Eigen::Index i = 0; i < mass.size(); ++i)
     if (!(mass[i] > 0))
       throw Error("HeatFlow: the mass of row " + std::to_string(i) +
-                  " is not > 0; build the flow from the ContourOperator, which handles zero measures");
+                  " is not > 0 (an element of zero measure has no equation in (A, M)); for contours build the flow from "
+                  "the ContourOperator, which steps such elements with their row of L; elsewhere drop them or use a smaller k_R");
   factorize(A, mass, scheme);
 }
 
