@@ -19,7 +19,7 @@ inline void check_eigen_request(const Eigen::VectorXd& mass, int count) {
   for (Eigen::Index i = 0; i < n; ++i)
     if (!(mass[i] > 0))
       throw Error("smallest_eigenpairs: the mass of row " + std::to_string(i) +
-                  " is not > 0 (a zero measure: the linel's II normal is orthogonal to it); "
+                  " is not > 0 (a zero measure: the element's II normal is orthogonal to it); "
                   "M must be definite: use pointels or a smaller k_R");
 }
 

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 namespace digilap::detail {
@@ -82,6 +83,16 @@ RitzPairs rayleigh_ritz(const Eigen::MatrixXd& gram, const Eigen::MatrixXd& proj
 }
 
 }  // namespace
+
+Eigen::MatrixXd lobpcg_start(Eigen::Index n, Eigen::Index b) {
+  Eigen::MatrixXd start(n, b);
+  std::uint64_t state = 0x9e3779b97f4a7c15ULL;
+  for (Eigen::Index k = 0; k < start.size(); ++k) {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    start.data()[k] = static_cast<double>(state >> 11) * 0x1.0p-53 - 0.5;
+  }
+  return start;
+}
 
 LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
                     double tolerance, int max_iterations, const std::function<void(int, double)>& progress) {

@@ -589,15 +589,10 @@ Spectrum contour_spectrum(const MatrixFreeLaplacian& op, std::size_t contour, in
   const double lobpcg_need = detail::lobpcg_bytes(n, block);
   if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {
     const ArclengthPreconditioner preconditioner(op, contour);
-    Eigen::MatrixXd start(n, block);
-    std::uint64_t state = 0x9e3779b97f4a7c15ULL;  // a fixed start: reproducible runs
-    for (Eigen::Index k = 0; k < start.size(); ++k) {
-      state = state * 6364136223846793005ULL + 1442695040888963407ULL;
-      start.data()[k] = static_cast<double>(state >> 11) * 0x1.0p-53 - 0.5;
-    }
     const detail::LobpcgResult r = detail::lobpcg(
         [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { form.apply_block(x, y); },
-        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); }, std::move(start), count,
+        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); },
+        detail::lobpcg_start(n, block), count,
         o.tolerance * c, std::min(o.max_iterations, kLobpcgIterations), o.progress);
     if (r.converged) {
       s.eigenvalues = r.values;

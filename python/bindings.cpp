@@ -6,6 +6,7 @@
 #include "digilap/digilap.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
+#include "digilap/surface/volume.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -371,6 +372,17 @@ PYBIND11_MODULE(_digilap, m) {
       .def("voxel_count", &surface::VoxelSet::voxel_count)
       .def("contains", &surface::VoxelSet::contains, py::arg("i"), py::arg("j"), py::arg("k"));
   s.def("digitize", &surface::digitize, py::arg("surface"), py::arg("h"), Release(), "Gauss digitization of a surface.");
+  s.def(
+      "read_volume",
+      [](const std::string& path, double h, std::int64_t label, double threshold, std::int64_t max_voxels) {
+        surface::VolumeOptions o;
+        o.h = h, o.label = label, o.threshold = threshold, o.max_voxels = max_voxels;
+        return surface::read_volume(path, o);
+      },
+      py::arg("path"), py::arg("h") = 0.0, py::arg("label") = -1, py::arg("threshold") = 1.0,
+      py::arg("max_voxels") = surface::VolumeOptions{}.max_voxels, Release(),
+      "Voxels of a .npy or NIfTI (.nii, .nii.gz) volume: value == label when label >= 0, else value >= "
+      "threshold. h = 0: the NIfTI spacing, or 1 / (largest dimension) for .npy. Anisotropic spacing is refused.");
   py::class_<surface::SurfelSet>(s, "SurfelSet", "The surfels of a voxel set: faces between a voxel inside and one outside.")
       .def("__len__", &surface::SurfelSet::size)
       .def_property_readonly("centres", &surface::SurfelSet::centres);
@@ -411,7 +423,9 @@ PYBIND11_MODULE(_digilap, m) {
       py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
       "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j.");
   s.def("smallest_eigenpairs", [](const surface::SurfaceOperator& op, int count) {
-        Spectrum sp = smallest_eigenpairs(op.A, op.mass, {count});
+        SpectrumOptions o;
+        o.count = count, o.method = SpectrumMethod::Products;  // a surface's factorization fills in
+        Spectrum sp = smallest_eigenpairs(op.A, op.mass, o);
         sp.laplace_beltrami = laplace_beltrami_eigenvalues(sp.eigenvalues, op.t, &sp.undefined_estimates);
         return sp;
       }, py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs of (-A, M), with Laplace-Beltrami estimates.");

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, with AddressSanitizer and UBSan) for the image reader ->
-# contour tracker -> measures chain and for the .npy volume reader -> surfels -> measures chain,
+# contour tracker -> measures chain and for the volume readers (.npy, NIfTI) -> surfels -> measures chain,
 # and runs each for a bounded time (the image target 60%, the volume target 40% of the budget)
 # on a copy of its committed seed corpus. Prints the number of executions; fails on any crash
 # or sanitizer report.
@@ -18,9 +18,10 @@ flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
 # stb's zero-byte memcpy from a null pointer is harmless: the same exemption as in lib/CMakeLists.txt.
 clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/png_decode.cpp -o build-fuzz/png_decode.o
 clang++ "${flags[@]}" "${srcs[@]}" tests/fuzz/fuzz_image.cpp build-fuzz/png_decode.o -o build-fuzz/fuzz_image
-volume_srcs=(lib/surface/volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
+volume_srcs=(lib/surface/volume.cpp lib/surface/nifti_volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
              lib/surface/measures.cpp lib/surface/shapes.cpp lib/digitization.cpp lib/shapes.cpp lib/shape_parameters.cpp)
-clang++ "${flags[@]}" "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -o build-fuzz/fuzz_volume
+# nifticlib (Debian's, not instrumented) is linked as it is: ASan still sees its heap.
+clang++ "${flags[@]}" -I/usr/include/nifti "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -lnifti2 -lz -o build-fuzz/fuzz_volume
 status=0
 run_target() {  # run_target <name> <seed corpus> <seconds>
   local name="$1" seeds="$2" time="$3"

@@ -11,4 +11,5 @@ mkdir -p build-asan/test-data && cp -f build/test-data/horse.png build-asan/test
 cd build-asan
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
-ctest --output-on-failure -j"$(nproc)"
+# The sphere at h = 0.02 (4.7 GB, 20 s in Release) is left to the Release run.
+ctest --output-on-failure -j"$(nproc)" -E "SphereSpectrumAtFineStep"

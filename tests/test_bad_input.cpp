@@ -14,7 +14,7 @@ struct Case {
   const char* name;
   const char* app;       // "operator", "spectrum", "heat", "convergence"
   std::string args;      // {dir} stands for the scratch directory
-  std::string file;      // written to {dir}/<name>.img when the arguments name that file
+  std::string file;      // written to {dir}/<name>.img (or .nii, .npy) when the arguments name that file
   bool succeeds;         // expected exit code 0 (else non-zero)
   const char* fragment;  // expected in the output
 };
@@ -29,6 +29,24 @@ std::string app_path(const std::string& app) {
 std::string replace_all(std::string s, const std::string& from, const std::string& to) {
   for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
   return s;
+}
+
+// The first `bytes` bytes of a committed file (a truncated copy).
+std::string file_prefix(const std::string& path, std::size_t bytes) {
+  std::ifstream in(path, std::ios::binary);
+  std::string s(bytes, '\0');
+  in.read(s.data(), static_cast<std::streamsize>(bytes));
+  s.resize(static_cast<std::size_t>(in.gcount()));
+  return s;
+}
+
+// A uint8 .npy volume of shape (n, n, n) filled with `value` (only its header when value < 0).
+std::string npy_cube(int n, int value) {
+  const std::string dims = std::to_string(n);
+  std::string dict = "{'descr': '|u1', 'fortran_order': False, 'shape': (" + dims + ", " + dims + ", " + dims + "), }";
+  dict.append(117 - dict.size(), ' ');
+  const std::string header = std::string("\x93NUMPY\x01\x00\x76\x00", 10) + dict + "\n";
+  return value < 0 ? header : header + std::string(static_cast<std::size_t>(n) * n * n, static_cast<char>(value));
 }
 
 std::string p5(int w, int h, int maxval, int value) {
@@ -111,8 +129,21 @@ const std::vector<Case> kCases = {
     {"volume_spectrum", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --count 5 --out {dir}/vol", "", true, "ball_u1.npy, h = 0.166667"},
     {"volume_label_absent", "spectrum", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --label 9", "", false, "no voxel has the label 9"},
     {"volume_missing", "spectrum", "--volume {dir}/none.npy", "", false, "cannot open the file"},
-    {"volume_truncated", "spectrum", "--volume {dir}/volume_truncated.img", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '|u1', 'fortran_order': False, 'shape': (9, 9, 9), }" + std::string(8, ' ') + "\n" + std::string(5, '\1'), false, "truncated: the data holds"},
-    {"volume_wrong_dtype", "spectrum", "--volume {dir}/volume_wrong_dtype.img", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 1, 1), }" + std::string(8, ' ') + "\n" + std::string(4, '\0'), false, "dtype '<f4' is not supported"},
+    {"volume_truncated", "spectrum", "--volume {dir}/volume_truncated.npy", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '|u1', 'fortran_order': False, 'shape': (9, 9, 9), }" + std::string(8, ' ') + "\n" + std::string(5, '\1'), false, "truncated: the data holds"},
+    {"volume_wrong_dtype", "spectrum", "--volume {dir}/volume_wrong_dtype.npy", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 1, 1), }" + std::string(8, ' ') + "\n" + std::string(4, '\0'), false, "dtype '<f4' is not supported"},
+    {"volume_nifti_spectrum", "spectrum", "--volume {data}/ball.nii.gz --count 5 --out {dir}/nii", "", true, "ball.nii.gz, h = 1"},
+    {"volume_nifti_anisotropic", "spectrum", "--volume {data}/ball_anisotropic.nii", "", false, "anisotropic voxel spacing 1 x 1 x 2.5 mm: the operator assumes cubic voxels"},
+    {"volume_nifti_truncated", "operator", "--volume {dir}/volume_nifti_truncated.nii", file_prefix(DIGILAP_SOURCE_DATA "/../fuzz/volume_corpus/ball_u1.nii", 600), false, "truncated: the data needs 512 bytes from byte 352, the file has 600"},
+    {"volume_nifti_corrupt", "operator", "--volume {dir}/volume_nifti_corrupt.nii", "GIF89a" + std::string(400, 'x'), false, "not a NIfTI file"},
+    {"volume_unknown_extension", "operator", "--volume {data}/ten_squares.pbm", "", false, "unknown extension (.npy, .nii or .nii.gz)"},
+    {"volume_empty", "spectrum", "--volume {dir}/volume_empty.npy", npy_cube(6, 0), false, "no voxel reaches the threshold"},
+    {"volume_all_foreground", "spectrum", "--volume {dir}/volume_all_foreground.npy --count 3 --out {dir}/full", npy_cube(6, 1), true, "volume_all_foreground.npy, h = 0.166667"},
+    {"volume_single_voxel_dropped", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy", "", false, "every surface has fewer than 8 surfels: lower --min-linels"},
+    {"volume_single_voxel_kept", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy --min-linels 0 --out {dir}/one", "", true, "N = 6 surfels, nnz(L) = 36, area 6"},
+    {"volume_size_above_limit", "operator", "--volume {dir}/volume_size_above_limit.npy", npy_cube(2000, -1), false, "voxels are above the limit"},
+    {"volume_kR_covers_object", "operator", "--volume {data}/ball.nii.gz --kR 100", "", false, "is wider than the whole set"},
+    {"volume_memory_limit", "operator", "--volume {data}/ball.nii.gz --memory-limit 1000", "", false, "above the memory limit"},
+    {"surface_memory_limit", "spectrum", "--shape sphere --memory-limit 1000", "", false, "above the memory limit"},
     {"surface_operator_npz", "operator", "--shape torus --h 0.1 --format npz --out {dir}/torus", "", true, "torus/surfels.ply"},
     {"surface_convergence", "convergence", "--shape torus --h 0.2 0.15 --out {dir}/cv3", "", true, "| exact | "},
     {"surface_convergence_function", "convergence", "--shape sphere --function cos1", "", false, "test functions are x2 and xy"},
@@ -132,8 +163,10 @@ TEST_P(BadInput, ClearMessageAndExitCode) {
   const Case& c = GetParam();
   const auto dir = std::filesystem::temp_directory_path() / "digilap_bad_input";
   std::filesystem::create_directories(dir);
-  const std::string file = std::string(c.name) + ".img";
-  if (c.args.find(file) != std::string::npos) std::ofstream(dir / file, std::ios::binary) << c.file;
+  for (const char* extension : {".img", ".nii", ".npy"}) {
+    const std::string file = std::string(c.name) + extension;
+    if (c.args.find(file) != std::string::npos) std::ofstream(dir / file, std::ios::binary) << c.file;
+  }
   const std::string command =
       app_path(c.app) + " --quiet " + replace_all(replace_all(c.args, "{dir}", dir.string()), "{data}", DIGILAP_SOURCE_DATA) + " 2>&1";
   FILE* pipe = popen(command.c_str(), "r");

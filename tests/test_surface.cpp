@@ -10,7 +10,10 @@
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
+#include <nifti1.h>
+#include <nifti2.h>
 #include <omp.h>
+#include <zlib.h>
 
 #include <cmath>
 #include <cstring>
@@ -197,21 +200,48 @@ TEST(Surface, BitwiseIdenticalForOneAndTwoThreads) {
   EXPECT_EQ(std::memcmp(one.mu.mu.data(), two.mu.mu.data(), sizeof(double) * one.mu.mu.size()), 0);
   EXPECT_EQ(std::memcmp(one.op.L.valuePtr(), two.op.L.valuePtr(), sizeof(double) * one.op.L.nonZeros()), 0);
   EXPECT_EQ(std::memcmp(one.op.L.innerIndexPtr(), two.op.L.innerIndexPtr(), sizeof(int) * one.op.L.nonZeros()), 0);
+  // The spectrum by LOBPCG on products too (its block products and algebra run in fixed chunks),
+  // on the sphere (the torus at h = 0.05 has surfels of zero area: M is not definite).
+  const Pipeline sphere = run(Sphere(), 0.1, true, 0.1);
+  SpectrumOptions o;
+  o.count = 8, o.method = SpectrumMethod::Products;
+  omp_set_num_threads(1);
+  const Spectrum s1 = smallest_eigenpairs(sphere.op.A, sphere.op.mass, o);
+  omp_set_num_threads(2);
+  const Spectrum s2 = smallest_eigenpairs(sphere.op.A, sphere.op.mass, o);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(std::memcmp(s1.eigenvalues.data(), s2.eigenvalues.data(), sizeof(double) * 8), 0);
+  EXPECT_EQ(std::memcmp(s1.eigenvectors.data(), s2.eigenvectors.data(), sizeof(double) * s1.eigenvectors.size()), 0);
 }
 
 // The sphere's spectrum through the 2D solvers (A, mass), and its heat flow. Reference
 // (issue 13): at h = 0.05, exact normals, t = 0.1 h^(2/3), l = 1..3 raw within 7.3% of l(l+1),
-// within 0.8% after lambda -> -ln(1 - lambda t) / t. The sparse Cholesky of a surface operator
-// fills in heavily (60 s at h = 0.05, 0.7 s at h = 0.1), so the test runs at h = 0.1, where we
-// measure raw 12.1% and corrected 1.3%: asserted within 15% and 2%, the 3 + 5 + 7 copies
-// within 2% of each other.
+// within 0.8% after lambda -> -ln(1 - lambda t) / t. Here at h = 0.1 (the fine step is the next
+// test), where we measure raw 12.1% and corrected 1.3%: asserted within 15% and 2%, the
+// 3 + 5 + 7 copies within 2% of each other. Both solvers (the factorization and LOBPCG on
+// products, the surfaces' method) give the same pairs.
 TEST(Surface, SphereSpectrumAndHeatFlow) {
   Sphere sphere;
   sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
   const Pipeline p = run(sphere, 0.1, true, 0.1);
-  const Spectrum s = smallest_eigenpairs(p.op.A, p.op.mass, {16});
+  SpectrumOptions factorized, products;
+  factorized.count = products.count = 16;
+  factorized.method = SpectrumMethod::Factorization, products.method = SpectrumMethod::Products;
+  const Spectrum s = smallest_eigenpairs(p.op.A, p.op.mass, factorized);
   const Eigen::VectorXd mu = laplace_beltrami_eigenvalues(s.eigenvalues, p.op.t);
   EXPECT_LE(std::abs(s.eigenvalues[0]), 1e-8);
+  // LOBPCG's residuals are within 1e-10 of the spectrum's bound c <= 2 / t (about 120 here), so
+  // its eigenvalues agree to c 1e-10 (a residual bound) with slack for the clusters: 1e-7.
+  const Spectrum q = smallest_eigenpairs(p.op.A, p.op.mass, products);
+  EXPECT_LT((q.eigenvalues - s.eigenvalues).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_LT(q.iterations, 40);
+  // The same invariant subspaces: the projector of each cluster agrees (eigenvectors within a
+  // cluster are any M-orthonormal basis of it).
+  for (const auto& [first, size] : {std::pair{1, 3}, std::pair{4, 5}, std::pair{9, 7}}) {
+    const Eigen::MatrixXd a = s.eigenvectors.middleCols(first, size), b = q.eigenvectors.middleCols(first, size);
+    const Eigen::MatrixXd overlap = a.transpose() * p.op.mass.asDiagonal() * b;  // orthogonal when equal spans
+    EXPECT_NEAR((overlap.transpose() * overlap).trace(), size, 1e-6) << "cluster at " << first;
+  }
   int k = 1;
   for (int l = 1; l <= 3; ++l) {
     const double exact = l * (l + 1.0);
@@ -231,6 +261,35 @@ TEST(Surface, SphereSpectrumAndHeatFlow) {
   const Eigen::VectorXd u = HeatFlow(p.op.A, p.op.mass, tau / 40, TimeScheme::CrankNicolson).advance(u0, 40);
   const double amplitude = u.dot(p.op.mass.cwiseProduct(u0)) / u0.dot(p.op.mass.cwiseProduct(u0));
   EXPECT_NEAR(amplitude, std::exp(-2 * tau), 0.01 * std::exp(-2 * tau));
+}
+
+// Issue 13's must-show: the sphere at h = 0.02 with the defaults (II normals, c_t = 0.1, the
+// measured length scale), N = 46,950, through LOBPCG on products (about 20 s and 4.7 GB; the
+// factorization would not fit). Measured: l = 1..3 within 0.57% of l(l+1) after the bias
+// correction, clusters split by 0.19% (l = 2) and 0.10% (l = 3). Asserted: 1% and 1%, the
+// issue's figures. Left out of the sanitizer run (scripts/sanitize.sh) for its size.
+TEST(Surface, SphereSpectrumAtFineStep) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const VoxelSet voxels = digitize(sphere, 0.02);
+  const SurfelSet surfels = extract_surfels(voxels);
+  const SurfelMeasures mu = measures(surfels, ii_normals(voxels, surfels));
+  const SurfaceOperator op = heat_laplacian(surfels, mu);
+  SpectrumOptions o;
+  o.count = 17, o.method = SpectrumMethod::Products;
+  const Spectrum s = smallest_eigenpairs(op.A, op.mass, o);
+  const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);
+  int k = 1;
+  for (int l = 1; l <= 3; ++l) {
+    const double exact = l * (l + 1.0);
+    double lo = 1e300, hi = 0;
+    for (int m = 0; m < 2 * l + 1; ++m, ++k) {
+      EXPECT_NEAR(lb[k], exact, 0.01 * exact) << "l = " << l << ", k = " << k;
+      lo = std::min(lo, lb[k]), hi = std::max(hi, lb[k]);
+    }
+    EXPECT_LT((hi - lo) / exact, 0.01) << "l = " << l;
+  }
+  EXPECT_GT(lb[16], 19.0);  // the 17th is l = 4 (20): the three clusters are whole
 }
 
 // The surfels as a quad mesh: corners shared, so the Euler characteristic V - E + F (E = 2F
@@ -331,6 +390,7 @@ TEST(Surface, BadNpyVolumesAreRefused) {
       {npy("|u1", false, {2, 0, 2}, ""), "the volume is empty"},
       {npy("|u1", false, {2, 2, 2}, std::string(8, '\0')), "no voxel reaches the threshold"},
       {npy("|u1", false, {100000, 100000, 100000}, ""), "above the limit"},
+      {npy("|u1", false, {100000000000, 100000000000, 100000000000}, ""), "its 1e+33 voxels are above the limit"},
       {std::string("\x93NUMPY\x01\x00\xff\xff", 10), "truncated header"},
       {std::string("\x93NUMPY\x01\x00\x10\x00", 10) + "{'descr': '|u1'}", "no 'fortran_order'"},
   };
@@ -383,4 +443,177 @@ TEST(Surface, ConnectedSurfacesAndFilters) {
   EXPECT_EQ(largest.dropped, 2u);
   EXPECT_EQ(largest.surfels.size(), extract_surfels(digitize(big, 0.1)).size());
   EXPECT_EQ(connected_surfaces(digitize(*posed(make_surface("torus")), 0.07), extract_surfels(digitize(*posed(make_surface("torus")), 0.07))).sizes.size(), 1u);
+}
+
+// --- Volumes in (NIfTI) --------------------------------------------------------------------------
+
+namespace {
+// A NIfTI file written here field by field from the standard's header structs (not through
+// nifticlib, which reads it back): version 1 or 2, gzipped when the name ends in .gz.
+struct NiftiSample {
+  int version = 1;
+  std::int64_t dim[8] = {3, 1, 1, 1, 1, 1, 1, 1};
+  int datatype = DT_UINT8, bitpix = 8;
+  double spacing[3] = {1, 1, 1};
+  double slope = 0, inter = 0;
+  const char* magic = nullptr;  // a wrong magic on purpose
+  std::string data;
+};
+std::string nifti_bytes(const NiftiSample& s) {
+  std::string header;
+  if (s.version == 1) {
+    nifti_1_header h{};
+    h.sizeof_hdr = 348;
+    for (int d = 0; d < 8; ++d) h.dim[d] = static_cast<short>(s.dim[d]);
+    h.datatype = static_cast<short>(s.datatype), h.bitpix = static_cast<short>(s.bitpix);
+    h.pixdim[0] = 1;
+    for (int d = 0; d < 3; ++d) h.pixdim[d + 1] = static_cast<float>(s.spacing[d]);
+    h.vox_offset = 352, h.scl_slope = static_cast<float>(s.slope), h.scl_inter = static_cast<float>(s.inter);
+    h.xyzt_units = NIFTI_UNITS_MM;
+    std::memcpy(h.magic, s.magic ? s.magic : "n+1", 4);
+    header.assign(reinterpret_cast<const char*>(&h), sizeof h);
+    header.append(4, '\0');  // no extensions
+  } else {
+    nifti_2_header h{};
+    h.sizeof_hdr = 540;
+    std::memcpy(h.magic, "n+2\0\r\n\032\n", 8);
+    for (int d = 0; d < 8; ++d) h.dim[d] = s.dim[d];
+    h.datatype = static_cast<short>(s.datatype), h.bitpix = static_cast<short>(s.bitpix);
+    h.pixdim[0] = 1;
+    for (int d = 0; d < 3; ++d) h.pixdim[d + 1] = s.spacing[d];
+    h.vox_offset = 544, h.scl_slope = s.slope, h.scl_inter = s.inter;
+    h.xyzt_units = NIFTI_UNITS_MM;
+    header.assign(reinterpret_cast<const char*>(&h), sizeof h);
+    header.append(4, '\0');
+  }
+  return header + s.data;
+}
+std::string write_nifti(const std::string& name, const std::string& bytes) {
+  const std::string path = ::testing::TempDir() + "/" + name;
+  if (name.size() > 3 && name.compare(name.size() - 3, 3, ".gz") == 0) {
+    gzFile f = gzopen(path.c_str(), "wb");
+    gzwrite(f, bytes.data(), static_cast<unsigned>(bytes.size()));
+    gzclose(f);
+  } else {
+    std::ofstream(path, std::ios::binary) << bytes;
+  }
+  return path;
+}
+template <class T>
+std::string raw(const std::vector<T>& values) {
+  return std::string(reinterpret_cast<const char*>(values.data()), values.size() * sizeof(T));
+}
+}  // namespace
+
+// A digitized sphere written as NIfTI-1 uint8 (.nii), NIfTI-1 int16 labels (.nii.gz), NIfTI-2
+// float32 (.nii) and scaled uint8 (stored 1, slope 2, inter 1: value 3): read back, the same
+// voxels at the file's index and the same surfels; h is the file's spacing unless given.
+TEST(Surface, NiftiVolumesReadBackTheVoxels) {
+  const VoxelSet sphere = digitize(Sphere(), 0.1);
+  const int n = 24, shift = 12;
+  std::vector<std::uint8_t> mask(n * n * n);
+  std::vector<std::int16_t> labels(n * n * n);
+  std::vector<float> levels(n * n * n);
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const bool in = sphere.contains(i - shift, j - shift, k - shift);
+        const std::size_t at = static_cast<std::size_t>((k * n + j) * n + i);  // x fastest
+        mask[at] = in;
+        labels[at] = in ? 3 : (i < 2 ? -7 : 0);
+        levels[at] = in ? 0.75f : 0.25f;
+      }
+  auto sample = [&](int version, int datatype, int bitpix, std::string data, double spacing) {
+    NiftiSample s;
+    s.version = version, s.datatype = datatype, s.bitpix = bitpix, s.data = std::move(data);
+    s.dim[1] = s.dim[2] = s.dim[3] = n;
+    s.spacing[0] = s.spacing[1] = s.spacing[2] = spacing;
+    return s;
+  };
+  NiftiSample scaled = sample(1, DT_UINT8, 8, raw(mask), 0.1);
+  scaled.slope = 2, scaled.inter = 1;
+  VolumeOptions label3;
+  label3.label = 3;
+  VolumeOptions half;
+  half.threshold = 0.5;
+  const SurfelSet expected = extract_surfels(sphere);
+  for (const auto& [name, s, options] :
+       {std::tuple{"mask.nii", sample(1, DT_UINT8, 8, raw(mask), 0.1), VolumeOptions{}},
+        std::tuple{"labels.nii.gz", sample(1, DT_INT16, 16, raw(labels), 0.1), label3},
+        std::tuple{"levels.nii", sample(2, DT_FLOAT32, 32, raw(levels), 0.1), half},
+        std::tuple{"scaled.nii", scaled, label3}}) {
+    const VoxelSet v = read_volume(write_nifti(name, nifti_bytes(s)), options);
+    EXPECT_EQ(v.voxel_count(), sphere.voxel_count()) << name;
+    EXPECT_TRUE(v.contains(shift, shift, shift)) << name;
+    EXPECT_FALSE(v.contains(0, 0, 0)) << name;
+    EXPECT_EQ(extract_surfels(v).size(), expected.size()) << name;
+    EXPECT_NEAR(v.h(), 0.1, 1e-7) << name;  // NIfTI-1 stores the spacing as float
+  }
+  VolumeOptions slab;
+  slab.label = 0, slab.h = 0.5;  // background label 0: everything but the sphere and the slab
+  const VoxelSet rest = read_volume(write_nifti("labels.nii.gz", nifti_bytes(sample(1, DT_INT16, 16, raw(labels), 0.1))), slab);
+  EXPECT_EQ(rest.voxel_count(), n * n * n - sphere.voxel_count() - 2 * n * n);
+  EXPECT_EQ(rest.h(), 0.5);
+  // No spacing in the file (0): nifticlib reads it as 1, so h is one voxel unit.
+  EXPECT_DOUBLE_EQ(read_volume(write_nifti("nospacing.nii", nifti_bytes(sample(1, DT_UINT8, 8, raw(mask), 0)))).h(), 1.0);
+}
+
+// Every malformed, unsupported or anisotropic file is refused with the file and the reason.
+TEST(Surface, BadNiftiVolumesAreRefused) {
+  auto cube = [](int n, std::string data = "") {
+    NiftiSample s;
+    s.dim[1] = s.dim[2] = s.dim[3] = n;
+    s.data = data.empty() ? std::string(static_cast<std::size_t>(n) * n * n, '\1') : data;
+    return s;
+  };
+  NiftiSample anisotropic = cube(4);
+  anisotropic.spacing[2] = 2.5;
+  NiftiSample series = cube(2, std::string(24, '\1'));
+  series.dim[0] = 4, series.dim[4] = 3;
+  NiftiSample complex_type = cube(2, std::string(64, '\1'));
+  complex_type.datatype = DT_COMPLEX64, complex_type.bitpix = 64;
+  NiftiSample pair = cube(2);
+  pair.magic = "ni1";
+  NiftiSample huge = cube(2);
+  huge.version = 2, huge.dim[1] = huge.dim[2] = huge.dim[3] = 5000;
+  NiftiSample dark = cube(2, std::string(8, '\0'));
+  NiftiSample zero_dim = cube(2);
+  zero_dim.dim[2] = 0;
+  NiftiSample no_dims = cube(2);
+  no_dims.version = 2, no_dims.dim[0] = 0;
+  const std::string good = nifti_bytes(cube(4));
+  const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
+      {"bad.nii", "", "the file is empty"},
+      {"bad.nii", "GIF89a....", "truncated header (10 bytes"},
+      {"bad.nii", std::string(400, 'x'), "not a NIfTI file (sizeof_hdr is"},
+      {"bad.nii", good.substr(0, 200), "truncated header (200 bytes"},
+      {"bad.nii", good.substr(0, 352 + 30), "truncated: the data needs 64 bytes from byte 352"},
+      {"bad.nii.gz", good.substr(0, 352 + 30), "truncated or unreadable voxel data"},
+      {"bad.nii", nifti_bytes(anisotropic), "anisotropic voxel spacing 1 x 1 x 2.5 mm"},
+      {"bad.nii", nifti_bytes(series), "holds 3 volumes"},
+      {"bad.nii", nifti_bytes(complex_type), "data type COMPLEX64 is not supported"},
+      {"bad.nii", nifti_bytes(pair), ".hdr/.img pair"},
+      {"bad.nii", nifti_bytes(huge), "125000000000 voxels are above the limit"},
+      {"bad.nii", nifti_bytes(dark), "no voxel reaches the threshold"},
+      {"bad.nii.gz", std::string(400, 'x'), "not a NIfTI file"},
+      {"bad.nii", nifti_bytes(zero_dim), "dimension 2 is 0"},
+      {"bad.nii.gz", nifti_bytes(no_dims), "dim[0] is 0"},
+  };
+  for (const auto& [name, bytes, fragment] : cases) {
+    const std::string path = write_nifti(name, bytes);
+    const std::string message = error_of([&] { read_volume(path); });
+    EXPECT_NE(message.find(fragment), std::string::npos) << name << " message: " << message;
+    EXPECT_NE(message.find(name), std::string::npos) << message;
+  }
+  // The fuzzer's input that smashed nifticlib's stack (NIfTI-2, dim[0] = 849): refused before it.
+  EXPECT_NE(error_of([] { read_volume(DIGILAP_SOURCE_DATA "/../fuzz/volume_corpus/regression_nifti2_dim0_849.nii"); })
+                .find("dim[0] is 849 (the number of dimensions must be 1 to 7)"),
+            std::string::npos);
+  // And the one whose 4th to 7th dimensions multiply past 2^63 (a count no integer holds).
+  EXPECT_NE(error_of([] { read_volume(DIGILAP_SOURCE_DATA "/../fuzz/volume_corpus/regression_nifti2_extra_dims_overflow.nii"); })
+                .find("e+"),
+            std::string::npos);
+  EXPECT_NE(error_of([] { read_volume(::testing::TempDir() + "/bad.vol"); }).find("unknown extension"), std::string::npos);
+  EXPECT_NE(error_of([] { read_volume("/nonexistent/volume.nii.gz"); }).find("cannot open"), std::string::npos);
+  EXPECT_NE(error_of([] { read_nifti_volume(::testing::TempDir() + "/plain.npy"); }).find(".nii or .nii.gz"), std::string::npos);
 }

@@ -36,7 +36,7 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
       ->capture_default_str();
   app.add_option("--centre", o.centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--image", o.image, "Binary image instead of a shape: PBM, PGM (8/16 bit) or PNG");
-  app.add_option("--volume", o.volume, "digilap-spectrum: a 3-D .npy volume (bool, uint8, uint16) instead of a shape");
+  app.add_option("--volume", o.volume, "A 3-D volume instead of a shape: .npy (bool, uint8, uint16) or NIfTI .nii/.nii.gz (cubic voxels; h defaults to the file's spacing)");
   app.add_option("--label", o.label, "Volumes: the label of the object (default: every non-zero voxel)");
   if (with_h)
     app.add_option("--h", o.h, "Grid step h (default: 0.01 for shapes, 1/max(width, height) for images)")
@@ -177,7 +177,7 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     surface::VolumeOptions vo;
     vo.h = o.h;
     vo.label = o.label;
-    fe.voxels = surface::read_npy_volume(o.volume, vo);
+    fe.voxels = surface::read_volume(o.volume, vo);
     fe.name = std::filesystem::path(o.volume).filename().string();
   }
   // The connected surfaces, filtered as contours are: --largest, and --min-linels as surfels.
@@ -187,6 +187,8 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
   if (kept.dropped > 0 && !progress.quiet())
     std::fprintf(stderr, "warning: dropped %zu surface(s)%s\n", kept.dropped,
                  o.largest ? " (keeping the largest only)" : (" with fewer than " + std::to_string(o.min_linels) + " surfels").c_str());
+  if (fe.surfels.size() == 0 && kept.dropped > 0)
+    throw Error("every surface has fewer than " + std::to_string(o.min_linels) + " surfels: lower --min-linels");
   if (fe.surfels.size() == 0) throw Error("the digitization is empty: use a smaller h");
   progress.start("normals");
   const double k_R = o.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : o.k_R;

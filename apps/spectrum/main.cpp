@@ -34,6 +34,7 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
   progress.finish();
   progress.start("eigenpairs");
+  spectrum_options.method = SpectrumMethod::Products;  // a surface's factorization fills in
   const Spectrum s = smallest_eigenpairs(op.A, op.mass, spectrum_options);
   progress.finish();
   const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);

@@ -2,7 +2,8 @@
 //
 // Solves the generalized problem  -A x = lambda M x  (A = M L symmetric negative semidefinite,
 // M = diag(mu)) for its smallest eigenvalues, ascending, by Lanczos in shift-and-invert mode
-// with a sparse Cholesky (LDL^T) factorization of -A - sigma M, sigma slightly negative.
+// with a sparse Cholesky (LDL^T) factorization of -A - sigma M, sigma slightly negative, or by
+// block LOBPCG on products when the factorization would fill in (surfaces; SpectrumMethod).
 // Eigenvectors are M-orthonormal: x_i^T M x_j = delta_ij, with a fixed sign (the entry of
 // largest magnitude is positive). Each closed contour contributes one eigenvalue 0 (its
 // constant vector).
@@ -25,9 +26,23 @@
 
 namespace digilap {
 
+/// How smallest_eigenpairs solves a large part (small ones are dense).
+enum class SpectrumMethod {
+  /// Factorization (shift-and-invert Lanczos), unless block LOBPCG on products alone converges
+  /// within the factorization's own cost, as it does on surfaces (whose factor fills in).
+  Auto,
+  /// Shift-and-invert Lanczos on a sparse LDL^T of -A - sigma M (curves: the factor stays a band).
+  Factorization,
+  /// Block LOBPCG on products with A, no factorization and no symbolic analysis (surfaces: the
+  /// spectrum stops near 1 / t, so 21-34 iterations from h = 0.1 to 0.02 on the unit sphere);
+  /// falls back to the factorization if it does not converge in max_iterations.
+  Products,
+};
+
 struct SpectrumOptions {
   int count = 10;            ///< number of eigenpairs (smallest first)
-  int max_iterations = 1000; ///< Lanczos restarts allowed
+  SpectrumMethod method = SpectrumMethod::Auto;  ///< explicit operators: see SpectrumMethod
+  int max_iterations = 1000; ///< Lanczos restarts, or LOBPCG iterations, allowed
   double tolerance = 1e-10;  ///< relative tolerance on the Ritz values
   int subspace = 0;          ///< Krylov subspace size; 0 = max(2 count + 1, 20), capped at N
   /// Matrix-free solver only: the dense blocks it may allocate (LOBPCG holds about 16 blocks

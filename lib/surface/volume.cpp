@@ -1,6 +1,7 @@
 #include "digilap/surface/volume.hpp"
 
 #include "digilap/error.hpp"
+#include "volume_grid.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -72,7 +73,7 @@ VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& o) {
   double voxels = 1;
   for (std::int64_t d : header.shape) voxels *= static_cast<double>(d);
   if (header.shape.size() == 3 && voxels > static_cast<double>(o.max_voxels))
-    throw Error("cannot read volume '" + path + "': its " + std::to_string(static_cast<long long>(voxels)) +
+    throw Error("cannot read volume '" + path + "': its " + detail::count_text(voxels) +
                 " voxels are above the limit of " + std::to_string(o.max_voxels));
   if (file_size > static_cast<std::uint64_t>(header.data_offset) + 2 * static_cast<std::uint64_t>(std::max(voxels, 0.0)) + 16)
     throw Error("cannot read volume '" + path + "': the file is larger than its header declares");
@@ -95,10 +96,10 @@ VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, con
   for (std::int64_t d : header.shape) voxels *= static_cast<double>(d);
   if (voxels == 0) fail("the volume is empty (a dimension is 0)");
   if (voxels > static_cast<double>(o.max_voxels))
-    fail("its " + std::to_string(static_cast<long long>(voxels)) + " voxels are above the limit of " + std::to_string(o.max_voxels));
+    fail("its " + detail::count_text(voxels) + " voxels are above the limit of " + std::to_string(o.max_voxels));
   if (static_cast<double>(header.data_offset) + voxels * static_cast<double>(item) > static_cast<double>(file_size))
     fail("truncated: the data holds " + std::to_string(file_size - header.data_offset) + " of " +
-         std::to_string(static_cast<long long>(voxels * static_cast<double>(item))) + " bytes");
+         detail::count_text(voxels * static_cast<double>(item)) + " bytes");
   if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_npy_volume: h", o.h);
   if (!std::isfinite(o.threshold)) fail("the threshold must be finite");
   // Axes as voxel counts along x, y, z: the last array axis is x in C order, the first in Fortran.
@@ -112,22 +113,11 @@ VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, con
     const auto* p = reinterpret_cast<const unsigned char*>(data) + 2 * at;
     return p[0] | (p[1] << 8);
   };
-  auto foreground = [&](double v) { return o.label >= 0 ? v == static_cast<double>(o.label) : v >= o.threshold; };
-  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(ny * nz));
-  for (std::int64_t k = 0; k < nz; ++k)
-    for (std::int64_t j = 0; j < ny; ++j) {
-      std::vector<Run>& row = rows[static_cast<std::size_t>(k * ny + j)];
-      for (std::int64_t i = 0; i < nx;) {
-        if (!foreground(value(k, j, i))) { ++i; continue; }
-        std::int64_t e = i;
-        while (e < nx && foreground(value(k, j, e))) ++e;
-        row.push_back({static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
-        i = e;
-      }
-    }
   const double h = o.h > 0 ? o.h : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
-  VoxelSet set = VoxelSet::from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(rows));
-  if (set.empty()) fail(o.label >= 0 ? "no voxel has the label " + std::to_string(o.label) : "no voxel reaches the threshold");
+  VoxelSet set = detail::voxel_set_from_grid(h, nx, ny, nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return detail::is_foreground(o, value(k, j, i));
+  });
+  if (set.empty()) fail(detail::no_foreground_reason(o));
   return set;
 }
 

@@ -2,6 +2,7 @@
 errors, the GIL released while computing (issue 11). Run by ctest (test python_module)."""
 import gc
 import os
+import pathlib
 import subprocess
 import threading
 import time
@@ -229,6 +230,21 @@ def test_downstream_functions_and_options():
     assert geodesic[-1] < geodesic[0]  # it converges
     per_contour = digilap.smallest_eigenpairs_per_contour(plain, 5)
     assert len(per_contour) == 1 and np.allclose(per_contour[0].eigenvalues, digilap.smallest_eigenpairs(plain, 5).eigenvalues)
+
+
+def test_volumes_in_python(tmp_path):
+    """NIfTI and .npy volumes through the same reader as the apps, with its refusals."""
+    from digilap import surface
+    data = pathlib.Path(__file__).resolve().parents[1] / "data"
+    ball = surface.read_volume(str(data / "ball.nii.gz"))
+    assert ball.h == 1.0 and ball.contains(8, 8, 8) and not ball.contains(0, 0, 0)
+    mask = np.zeros((16, 16, 16), dtype=np.uint8)  # the same ball, (plane, row, column) = (z, y, x)
+    k, j, i = np.indices(mask.shape)
+    mask[(i - 7.5) ** 2 + (j - 7.5) ** 2 + (k - 7.5) ** 2 <= (16 / 3) ** 2] = 1
+    np.save(tmp_path / "ball.npy", mask)
+    assert surface.read_volume(str(tmp_path / "ball.npy"), h=1.0).voxel_count() == ball.voxel_count() == int(mask.sum())
+    with pytest.raises(digilap.Error, match="anisotropic voxel spacing 1 x 1 x 2.5 mm"):
+        surface.read_volume(str(data / "ball_anisotropic.nii"))
 
 
 def test_surface_pipeline_in_python(tmp_path):

@@ -1,5 +1,5 @@
-// digilap — volumes in: NumPy .npy arrays (a segmentation, a binary volume) as voxel sets, the
-// 3D sibling of image.hpp. (NIfTI comes next.)
+// digilap — volumes in: NumPy .npy arrays and NIfTI-1/2 files (a segmentation, a binary volume)
+// as voxel sets, the 3D sibling of image.hpp.
 #pragma once
 
 #include "digilap/surface/digitization.hpp"
@@ -10,7 +10,8 @@
 namespace digilap::surface {
 
 struct VolumeOptions {
-  /// Grid step; 0 means 1 / (the largest dimension): the volume spans the unit cube.
+  /// Grid step; 0 means: for NIfTI, the file's voxel spacing in its own unit (e.g. mm; 1 when the
+  /// file gives none); for .npy, 1 / (the largest dimension): the volume spans the unit cube.
   double h = 0.0;
   /// Foreground: value == label when label >= 0 (segmentations hold labels) ...
   std::int64_t label = -1;
@@ -29,5 +30,18 @@ VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& options =
 /// The same from bytes in memory (`name` is used in messages).
 VoxelSet decode_npy_volume(const std::uint8_t* data, std::size_t size, const std::string& name = "volume",
                            const VolumeOptions& options = {});
+
+/// Reads a NIfTI-1 or NIfTI-2 single file, .nii or .nii.gz, through nifticlib. Voxel (i, j, k)
+/// is the file's index (i, j, k); the orientation matrices are not applied (a flip or rotation
+/// does not change the operator's spectrum). Values are compared after scl_slope/scl_inter
+/// when the file sets them. Integer and floating-point scalar types are read. Throws
+/// digilap::Error naming the file and the reason for: a missing, empty, truncated or corrupt
+/// file, a .hdr/.img pair, more than one volume (4-D), an unsupported data type, a size above
+/// the limit, and anisotropic voxel spacing (named in the message: the operator assumes cubes,
+/// resample first).
+VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& options = {});
+
+/// read_npy_volume or read_nifti_volume by the file's extension (.npy, .nii, .nii.gz).
+VoxelSet read_volume(const std::string& path, const VolumeOptions& options = {});
 
 }  // namespace digilap::surface

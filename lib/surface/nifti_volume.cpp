@@ -1,0 +1,182 @@
+// NIfTI-1 and NIfTI-2 single files (.nii, .nii.gz) through Debian's nifticlib (libnifti2, which
+// reads both versions and gunzips through its znz layer). Before nifticlib sees a file, its
+// first bytes are checked here against the standard's fixed fields (sizeof_hdr and magic), so
+// that a file that is not NIfTI gets our message instead of nifticlib's stderr chatter; the
+// sizes it declares are checked against the limit before any voxel is read.
+#include "digilap/surface/volume.hpp"
+
+#include "digilap/error.hpp"
+#include "volume_grid.hpp"
+
+#include <nifti2_io.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+namespace digilap::surface {
+
+namespace {
+
+bool ends_with(const std::string& s, const std::string& tail) {
+  return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
+}
+
+[[noreturn]] void refuse(const std::string& path, const std::string& why) {
+  throw Error("cannot read volume '" + path + "': " + why);
+}
+
+std::int32_t int32_at(const unsigned char* b, bool swap) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < 4; ++i) v |= static_cast<std::uint32_t>(b[swap ? 3 - i : i]) << (8 * i);
+  return static_cast<std::int32_t>(v);
+}
+
+std::int64_t int64_at(const unsigned char* b, bool swap) {
+  std::uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(b[swap ? 7 - i : i]) << (8 * i);
+  return static_cast<std::int64_t>(v);
+}
+
+// The fields nifticlib trusts, checked here first: sizeof_hdr (348 or 540, in either byte
+// order), the single-file magic ("n+1" at byte 344, "n+2\0\r\n\032\n" at byte 4), and the
+// dimensions. nifticlib 3.0.1 copies dim[1..dim[0]] into fixed arrays without checking dim[0]
+// (a NIfTI-2 header with dim[0] = 849 smashed its stack under the fuzzer), so dim[0] must be in
+// 1..7 and each used dimension >= 1 before it reads the file. gzread reads a plain file as it
+// is, so the same code checks .nii and .nii.gz.
+void check_header_bytes(const std::string& path) {
+  gzFile file = gzopen(path.c_str(), "rb");
+  if (file == nullptr) refuse(path, "cannot open the file (does it exist and is it readable?)");
+  std::array<unsigned char, 540> head{};
+  const int got = gzread(file, head.data(), static_cast<unsigned>(head.size()));
+  gzclose(file);
+  if (got <= 0) refuse(path, got == 0 ? "the file is empty" : "not a readable gzip stream");
+  if (got < 348) refuse(path, "truncated header (" + std::to_string(got) + " bytes; NIfTI-1 needs 348)");
+  const unsigned char* b = head.data();
+  std::int64_t dim[8] = {};
+  if (int32_at(b, false) == 348 || int32_at(b, true) == 348) {
+    const bool swap = int32_at(b, true) == 348;
+    if (std::memcmp(b + 344, "ni1", 4) == 0) refuse(path, "a NIfTI-1 header of a .hdr/.img pair; give the single-file .nii form");
+    if (std::memcmp(b + 344, "n+1", 4) != 0) refuse(path, "not a NIfTI-1 file (no 'n+1' magic at byte 344)");
+    for (int d = 0; d < 8; ++d) dim[d] = static_cast<std::int16_t>(swap ? b[40 + 2 * d] << 8 | b[41 + 2 * d] : b[41 + 2 * d] << 8 | b[40 + 2 * d]);
+  } else if (int32_at(b, false) == 540 || int32_at(b, true) == 540) {
+    const bool swap = int32_at(b, true) == 540;
+    if (got < 540) refuse(path, "truncated header (" + std::to_string(got) + " bytes; NIfTI-2 needs 540)");
+    if (std::memcmp(b + 4, "n+2\0\r\n\032\n", 8) != 0) refuse(path, "not a single-file NIfTI-2 file (magic at byte 4)");
+    for (int d = 0; d < 8; ++d) dim[d] = int64_at(b + 16 + 8 * d, swap);
+  } else {
+    refuse(path, "not a NIfTI file (sizeof_hdr is " + std::to_string(int32_at(b, false)) + ", expected 348 or 540)");
+  }
+  if (dim[0] < 1 || dim[0] > 7) refuse(path, "dim[0] is " + std::to_string(dim[0]) + " (the number of dimensions must be 1 to 7)");
+  for (int d = 1; d <= dim[0]; ++d)
+    if (dim[d] < 1) refuse(path, "dimension " + std::to_string(d) + " is " + std::to_string(dim[d]));
+}
+
+// Element `at` of the loaded data as a double (the type was checked by supported_type).
+double stored_value(const nifti_image& nim, std::size_t at) {
+  const void* d = nim.data;
+  switch (nim.datatype) {
+    case DT_UINT8: return static_cast<const std::uint8_t*>(d)[at];
+    case DT_INT8: return static_cast<const std::int8_t*>(d)[at];
+    case DT_UINT16: return static_cast<const std::uint16_t*>(d)[at];
+    case DT_INT16: return static_cast<const std::int16_t*>(d)[at];
+    case DT_UINT32: return static_cast<const std::uint32_t*>(d)[at];
+    case DT_INT32: return static_cast<const std::int32_t*>(d)[at];
+    case DT_UINT64: return static_cast<double>(static_cast<const std::uint64_t*>(d)[at]);
+    case DT_INT64: return static_cast<double>(static_cast<const std::int64_t*>(d)[at]);
+    case DT_FLOAT32: return static_cast<const float*>(d)[at];
+    default: return static_cast<const double*>(d)[at];  // DT_FLOAT64
+  }
+}
+
+bool supported_type(int datatype) {
+  switch (datatype) {
+    case DT_UINT8: case DT_INT8: case DT_UINT16: case DT_INT16: case DT_UINT32: case DT_INT32:
+    case DT_UINT64: case DT_INT64: case DT_FLOAT32: case DT_FLOAT64: return true;
+    default: return false;
+  }
+}
+
+std::string spacing_text(double dx, double dy, double dz, int units) {
+  std::ostringstream s;
+  s << dx << " x " << dy << " x " << dz;
+  const char* unit = units == NIFTI_UNITS_MM ? " mm" : units == NIFTI_UNITS_MICRON ? " micron" : units == NIFTI_UNITS_METER ? " m" : "";
+  return s.str() + unit;
+}
+
+struct NiftiFree {
+  void operator()(nifti_image* nim) const { nifti_image_free(nim); }
+};
+
+}  // namespace
+
+VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
+  if (!(ends_with(path, ".nii") || ends_with(path, ".nii.gz")))
+    refuse(path, "a NIfTI volume is read from a .nii or .nii.gz file");
+  if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_nifti_volume: h", o.h);
+  if (!std::isfinite(o.threshold)) refuse(path, "the threshold must be finite");
+  check_header_bytes(path);
+  // nifticlib's debug level 1 prints notes (qform repairs and the like) that are not errors.
+  nifti_set_debug_level(0);
+  std::unique_ptr<nifti_image, NiftiFree> nim(nifti_image_read(path.c_str(), 0));
+  if (!nim) refuse(path, "nifticlib could not read its header (invalid dimensions or fields)");
+  if (!supported_type(nim->datatype))
+    refuse(path, std::string("data type ") + nifti_datatype_string(nim->datatype) +
+                     " is not supported (integer or floating-point scalars)");
+  // Sizes from the header, in double (NIfTI-2 dimensions are 64-bit), before reading data.
+  double voxels = 1, extra = 1;
+  for (int d = 1; d <= 7; ++d) {
+    if (d <= nim->ndim && nim->dim[d] < 1) refuse(path, "dimension " + std::to_string(d) + " is " + std::to_string(nim->dim[d]));
+    const double n = d <= nim->ndim ? static_cast<double>(nim->dim[d]) : 1.0;
+    (d <= 3 ? voxels : extra) *= n;
+  }
+  if (extra != 1)
+    refuse(path, "it holds " + detail::count_text(extra) +
+                     " volumes (a time series or vector data); give one 3-D volume");
+  if (voxels > static_cast<double>(o.max_voxels))
+    refuse(path, "its " + detail::count_text(voxels) + " voxels are above the limit of " +
+                     std::to_string(o.max_voxels));
+  const std::int64_t nx = nim->nx, ny = std::max<std::int64_t>(nim->ny, 1), nz = std::max<std::int64_t>(nim->nz, 1);
+  if (std::max({nx, ny, nz}) > kMaxPixelIndex) refuse(path, "a dimension is above " + std::to_string(kMaxPixelIndex));
+  // The operator is built on cubes: unequal spacings are refused (resample first), with the
+  // spacing named. nifticlib reads a spacing <= 0 as 1 (one voxel unit).
+  const double dx = std::fabs(nim->dx), dy = std::fabs(nim->dy), dz = std::fabs(nim->dz);
+  const bool has_spacing = dx > 0 && dy > 0 && dz > 0 && std::isfinite(dx + dy + dz);
+  // NIfTI-1 stores spacings as float: equal within float rounding is equal.
+  if (has_spacing && (std::max({dx, dy, dz}) - std::min({dx, dy, dz})) > 1e-5 * std::max({dx, dy, dz}))
+    refuse(path, "anisotropic voxel spacing " + spacing_text(dx, dy, dz, nim->xyz_units) +
+                     ": the operator assumes cubic voxels; resample the volume to equal spacing first");
+  std::error_code error;
+  const std::uintmax_t file_size = std::filesystem::file_size(path, error);
+  if (error) refuse(path, "cannot read its size (" + error.message() + ")");
+  if (!ends_with(path, ".gz") &&
+      static_cast<double>(nim->iname_offset) + voxels * nim->nbyper > static_cast<double>(file_size))
+    refuse(path, "truncated: the data needs " + detail::count_text(voxels * nim->nbyper) +
+                     " bytes from byte " + std::to_string(nim->iname_offset) + ", the file has " +
+                     std::to_string(file_size));
+  if (nifti_image_load(nim.get()) != 0 || nim->data == nullptr) refuse(path, "truncated or unreadable voxel data");
+  // Scaled values, as NIfTI readers report them, when the file gives a slope.
+  const double slope = nim->scl_slope, inter = nim->scl_inter;
+  const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
+  const double h = o.h > 0 ? o.h : has_spacing ? dx : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
+  VoxelSet set = detail::voxel_set_from_grid(h, nx, ny, nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    const double raw = stored_value(*nim, static_cast<std::size_t>((k * ny + j) * nx + i));
+    return detail::is_foreground(o, scaled ? slope * raw + inter : raw);
+  });
+  if (set.empty()) refuse(path, detail::no_foreground_reason(o));
+  return set;
+}
+
+VoxelSet read_volume(const std::string& path, const VolumeOptions& options) {
+  if (ends_with(path, ".npy")) return read_npy_volume(path, options);
+  if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) return read_nifti_volume(path, options);
+  throw Error("cannot read volume '" + path + "': unknown extension (.npy, .nii or .nii.gz)");
+}
+
+}  // namespace digilap::surface
