@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <sstream>
+#include <string>
 
 namespace digilap {
 
@@ -21,6 +22,15 @@ Eigen::Vector2d centroid(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index
   return p.middleRows(a, b - a).colwise().mean().transpose();
 }
 }  // namespace
+
+Eigen::MatrixXd smooth(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::MatrixXd& f, double tau, int steps) {
+  check_tau(tau, steps);
+  if (f.rows() != mass.size()) throw Error("smooth: the functions have " + std::to_string(f.rows()) + " rows, the operator " + std::to_string(mass.size()));
+  const HeatFlow flow(A, mass, tau / steps, TimeScheme::ImplicitEuler);
+  Eigen::MatrixXd out(f.rows(), f.cols());
+  for (Eigen::Index k = 0; k < f.cols(); ++k) out.col(k) = flow.advance(f.col(k), steps);
+  return out;
+}
 
 Eigen::VectorXd smooth_function(const ContourOperator& op, const Eigen::VectorXd& f, double tau, int steps) {
   check_tau(tau, steps);

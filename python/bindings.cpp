@@ -6,6 +6,7 @@
 #include "digilap/digilap.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
+#include "digilap/surface/smoothing.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include <pybind11/eigen.h>
@@ -429,6 +430,12 @@ PYBIND11_MODULE(_digilap, m) {
         sp.laplace_beltrami = laplace_beltrami_eigenvalues(sp.eigenvalues, op.t, &sp.undefined_estimates);
         return sp;
       }, py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs of (-A, M), with Laplace-Beltrami estimates.");
+  s.def("smooth_positions", [](const surface::SurfaceOperator& op, double tau, int steps, bool preserve_size) {
+        return surface::smooth_positions(op, {tau, steps, preserve_size});
+      }, py::arg("op"), py::arg("tau") = surface::SurfaceSmoothingOptions{}.tau,
+      py::arg("steps") = surface::SurfaceSmoothingOptions{}.steps,
+      py::arg("preserve_size") = surface::SurfaceSmoothingOptions{}.preserve_size, Release(),
+      "Fairing: the surfel centres diffused for time tau (N x 3), rescaled to their RMS size unless preserve_size=False.");
   s.def("save_ply", [](const surface::SurfelSet& f, const std::map<std::string, Eigen::VectorXd>& fields, const std::string& path) {
         const std::vector<std::pair<std::string, Eigen::VectorXd>> list(fields.begin(), fields.end());
         const auto size = surface::save_ply(f, list, path);

@@ -15,6 +15,12 @@
 
 namespace digilap {
 
+/// Columns of f (functions on the rows of (A, M), any number: values, positions in 2D or 3D)
+/// diffused for time tau by the heat flow of (A, M), implicit Euler in `steps` equal steps: the
+/// dimension-free core of the smoothing functions. Throws digilap::Error for tau not > 0 and
+/// finite, steps < 1, a size mismatch, or a mass that is not > 0.
+Eigen::MatrixXd smooth(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::MatrixXd& f, double tau, int steps = 1);
+
 /// A function smoothed by diffusion for time tau. Throws digilap::Error for tau not > 0 and
 /// finite, steps < 1, or a size mismatch.
 Eigen::VectorXd smooth_function(const ContourOperator& op, const Eigen::VectorXd& f, double tau, int steps = 1);

@@ -38,6 +38,14 @@ std::int32_t int32_at(const unsigned char* b, bool swap) {
   return static_cast<std::int32_t>(v);
 }
 
+bool supported_type(int datatype) {
+  switch (datatype) {
+    case DT_UINT8: case DT_INT8: case DT_UINT16: case DT_INT16: case DT_UINT32: case DT_INT32:
+    case DT_UINT64: case DT_INT64: case DT_FLOAT32: case DT_FLOAT64: return true;
+    default: return false;
+  }
+}
+
 std::int64_t int64_at(const unsigned char* b, bool swap) {
   std::uint64_t v = 0;
   for (int i = 0; i < 8; ++i) v |= static_cast<std::uint64_t>(b[swap ? 7 - i : i]) << (8 * i);
@@ -60,19 +68,26 @@ void check_header_bytes(const std::string& path) {
   if (got < 348) refuse(path, "truncated header (" + std::to_string(got) + " bytes; NIfTI-1 needs 348)");
   const unsigned char* b = head.data();
   std::int64_t dim[8] = {};
+  int datatype = 0;
   if (int32_at(b, false) == 348 || int32_at(b, true) == 348) {
     const bool swap = int32_at(b, true) == 348;
     if (std::memcmp(b + 344, "ni1", 4) == 0) refuse(path, "a NIfTI-1 header of a .hdr/.img pair; give the single-file .nii form");
     if (std::memcmp(b + 344, "n+1", 4) != 0) refuse(path, "not a NIfTI-1 file (no 'n+1' magic at byte 344)");
-    for (int d = 0; d < 8; ++d) dim[d] = static_cast<std::int16_t>(swap ? b[40 + 2 * d] << 8 | b[41 + 2 * d] : b[41 + 2 * d] << 8 | b[40 + 2 * d]);
+    auto int16_at = [&](int at) { return static_cast<std::int16_t>(swap ? b[at] << 8 | b[at + 1] : b[at + 1] << 8 | b[at]); };
+    for (int d = 0; d < 8; ++d) dim[d] = int16_at(40 + 2 * d);
+    datatype = int16_at(70);
   } else if (int32_at(b, false) == 540 || int32_at(b, true) == 540) {
     const bool swap = int32_at(b, true) == 540;
     if (got < 540) refuse(path, "truncated header (" + std::to_string(got) + " bytes; NIfTI-2 needs 540)");
     if (std::memcmp(b + 4, "n+2\0\r\n\032\n", 8) != 0) refuse(path, "not a single-file NIfTI-2 file (magic at byte 4)");
     for (int d = 0; d < 8; ++d) dim[d] = int64_at(b + 16 + 8 * d, swap);
+    datatype = static_cast<std::int16_t>(swap ? b[12] << 8 | b[13] : b[13] << 8 | b[12]);
   } else {
     refuse(path, "not a NIfTI file (sizeof_hdr is " + std::to_string(int32_at(b, false)) + ", expected 348 or 540)");
   }
+  if (!supported_type(datatype))
+    refuse(path, std::string("data type ") + nifti_datatype_string(datatype) + " (code " + std::to_string(datatype) +
+                     ") is not supported (integer or floating-point scalars)");
   if (dim[0] < 1 || dim[0] > 7) refuse(path, "dim[0] is " + std::to_string(dim[0]) + " (the number of dimensions must be 1 to 7)");
   for (int d = 1; d <= dim[0]; ++d)
     if (dim[d] < 1) refuse(path, "dimension " + std::to_string(d) + " is " + std::to_string(dim[d]));
@@ -92,14 +107,6 @@ double stored_value(const nifti_image& nim, std::size_t at) {
     case DT_INT64: return static_cast<double>(static_cast<const std::int64_t*>(d)[at]);
     case DT_FLOAT32: return static_cast<const float*>(d)[at];
     default: return static_cast<const double*>(d)[at];  // DT_FLOAT64
-  }
-}
-
-bool supported_type(int datatype) {
-  switch (datatype) {
-    case DT_UINT8: case DT_INT8: case DT_UINT16: case DT_INT16: case DT_UINT32: case DT_INT32:
-    case DT_UINT64: case DT_INT64: case DT_FLOAT32: case DT_FLOAT64: return true;
-    default: return false;
   }
 }
 
@@ -126,9 +133,6 @@ VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
   nifti_set_debug_level(0);
   std::unique_ptr<nifti_image, NiftiFree> nim(nifti_image_read(path.c_str(), 0));
   if (!nim) refuse(path, "nifticlib could not read its header (invalid dimensions or fields)");
-  if (!supported_type(nim->datatype))
-    refuse(path, std::string("data type ") + nifti_datatype_string(nim->datatype) +
-                     " is not supported (integer or floating-point scalars)");
   // Sizes from the header, in double (NIfTI-2 dimensions are 64-bit), before reading data.
   double voxels = 1, extra = 1;
   for (int d = 1; d <= 7; ++d) {

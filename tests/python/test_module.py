@@ -267,5 +267,9 @@ def test_surface_pipeline_in_python(tmp_path):
     assert abs(100 * error - 27.8) < 0.1  # the reference implementation's figure (issue 13)
     spectrum = surface.smallest_eigenpairs(op, 4)
     assert np.allclose(spectrum.laplace_beltrami[1:4], 2.0, rtol=0.05)  # l = 1 at h = 0.1: 3.5% low measured
+    faired = surface.smooth_positions(op, tau=5 * op.t)
+    assert faired.shape == op.positions.shape
+    radius = np.linalg.norm(faired - (op.mass @ faired) / op.mass.sum(), axis=1)
+    assert radius.std() / radius.mean() < 0.3 * 0.0234  # the digital staircase's roundness, faired away
     vertices, faces = surface.save_ply(surfels, {"mu": mu.mu}, str(tmp_path / "s.ply"))
     assert faces == len(surfels) and vertices - faces == 2
