@@ -127,11 +127,35 @@ double heat_time(double h, const HeatLaplacianOptions& options, double measured_
 }
 
 namespace {
+// Whether each contour's heat time comes from its own length scale.
+bool per_contour_times(const HeatLaplacianOptions& options, const Measures& measures, std::size_t contours) {
+  return options.per_contour_time && options.distance == DistanceMode::Geodesic && options.t == 0 &&
+         options.length_scale == 0 && measures.contour_length_scales.size() == contours;
+}
+}  // namespace
+
+std::vector<double> contour_heat_times(double h, const HeatLaplacianOptions& options, const Measures& measures,
+                                       std::size_t contours) {
+  if (!per_contour_times(options, measures, contours)) return std::vector<double>(contours, heat_time(h, options, measures));
+  std::vector<double> t(contours);
+  for (std::size_t c = 0; c < contours; ++c) t[c] = heat_time(h, options, measures.contour_length_scales[c]);
+  return t;
+}
+
+namespace {
 ContourOperator assemble(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options);
+
+// The contour with the most rows (whose heat time the operator reports as its t).
+std::size_t largest_contour(const std::vector<Eigen::Index>& offset) {
+  std::size_t best = 0;
+  for (std::size_t c = 0; c + 1 < offset.size(); ++c)
+    if (offset[c + 1] - offset[c] > offset[best + 1] - offset[best]) best = c;
+  return best;
+}
 
 // 2 L_{t/2} - L_t: the pattern of L_{t/2} (cut k sqrt(t/2)) is inside that of L_t.
 ContourOperator richardson(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options) {
-  HeatLaplacianOptions plain = options;
+  HeatLaplacianOptions plain = options;  // one t for all contours
   plain.t = heat_time(contours.h, options, measures);
   ContourOperator op = assemble(contours, measures, plain);
   plain.t *= 0.5;
@@ -152,17 +176,24 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
 
 namespace {
 ContourOperator assemble(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options) {
-  const double t = heat_time(contours.h, options, measures);
   check_positive("k", options.k);
-  const double cut = options.k * std::sqrt(t);
   const Elements e = gather_elements(contours, measures, options.placement);
   const Eigen::Index n = e.offset.back();
+  const std::vector<double> contour_t = contour_heat_times(contours.h, options, measures, e.offset.size() - 1);
+  // One t where the contours interact (Euclidean), possibly one per contour otherwise.
+  const double t = contour_t.empty() ? heat_time(contours.h, options, measures) : contour_t[largest_contour(e.offset)];
+  const double cut = options.k * std::sqrt(t);
   const double inv_4t = 1.0 / (4.0 * t), scale = 1.0 / (t * std::sqrt(4.0 * kPi * t));
 
   ContourOperator op;
   op.placement = options.placement;
   op.t = t;
-  op.length_scale = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
+  op.contour_t = contour_t;
+  op.length_scale = options.t != 0 ? 0.0
+                    : options.length_scale != 0 ? options.length_scale
+                    : per_contour_times(options, measures, contour_t.size()) && !contour_t.empty()
+                        ? measures.contour_length_scales[largest_contour(e.offset)]
+                        : measures.length_scale;
   op.cut = cut;
   op.positions = e.positions;
   op.mass = e.mu;
@@ -177,10 +208,10 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
     std::vector<GeodesicWindow> window(static_cast<std::size_t>(n));
     for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
       const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
-      const double P = e.length[c];
+      const double P = e.length[c], cut_c = options.k * std::sqrt(contour_t[c]);
 #pragma omp parallel for schedule(static)
       for (Eigen::Index i = 0; i < len; ++i) {
-        window[off + i] = geodesic_window(e.s.data() + off, len, i, P, cut);
+        window[off + i] = geodesic_window(e.s.data() + off, len, i, P, cut_c);
         row_nnz[off + i] = window[off + i].back + window[off + i].fwd + 1;
       }
     }
@@ -191,7 +222,8 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
     // Pass 2: fill the rows in parallel; columns of a cyclic window, rotated to be ascending.
     for (std::size_t c = 0; c + 1 < e.offset.size(); ++c) {
       const Eigen::Index off = e.offset[c], len = e.offset[c + 1] - off;
-      const double P = e.length[c];
+      const double P = e.length[c], t_c = contour_t[c];
+      const double inv_4t_c = 1.0 / (4.0 * t_c), scale_c = 1.0 / (t_c * std::sqrt(4.0 * kPi * t_c));
       const double* s = e.s.data() + off;
 #pragma omp parallel for schedule(dynamic, 64)
       for (Eigen::Index i = 0; i < len; ++i) {
@@ -214,7 +246,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
         if (hi >= len) emit(0, hi - len);
         emit(std::max<Eigen::Index>(lo, 0), std::min(hi, len - 1));
         if (lo < 0) emit(lo + len, len - 1);
-        finish_row(op.L, stiffness, off + i, diag, e.mu, inv_4t, scale);
+        finish_row(op.L, stiffness, off + i, diag, e.mu, inv_4t_c, scale_c);
       }
     }
   } else {

@@ -11,6 +11,7 @@
 #include <Spectra/SymEigsSolver.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <numeric>
@@ -79,19 +80,33 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     throw Error(msg.str());
   }
   require_positive("MatrixFreeLaplacian: k", options.k);
-  t_ = heat_time(contours.h, options, measures);
-  length_scale_ = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
-  cut_ = options.k * std::sqrt(t_);
-  delta_ = std::sqrt(4 * t_);
-  // Boxes of width <= delta / 2: sources and targets within a quarter of delta of their box
-  // centre. At most a third of the cut, so that the two ends of a box's windows stay apart.
-  box_ = std::min(0.5 * delta_, cut_ / 3);
+  const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
+  // Each contour's heat time, as the explicit operator takes them; box, delta and the cut scale
+  // with sqrt(t_c) together, so box / delta, the Hermite order and the table of whole-box
+  // offsets below are the same for every contour.
+  const std::vector<double> contour_t = contour_heat_times(contours.h, options, measures, e.offset.size() - 1);
+  std::size_t largest = 0;
+  for (std::size_t c = 0; c + 1 < e.offset.size(); ++c)
+    if (e.offset[c + 1] - e.offset[c] > e.offset[largest + 1] - e.offset[largest]) largest = c;
+  t_ = contour_t.empty() ? heat_time(contours.h, options, measures) : contour_t[largest];
+  // The l behind t_ (that of the same contour when the times are per contour).
+  const bool own_l = options.t == 0 && options.length_scale == 0 && options.per_contour_time && !contour_t.empty() &&
+                     measures.contour_length_scales.size() == contour_t.size();
+  length_scale_ = options.t != 0                ? 0.0
+                  : options.length_scale != 0   ? options.length_scale
+                  : own_l                       ? measures.contour_length_scales[largest]
+                                                : measures.length_scale;
+  auto geometry = [&](double t) {  // cut, delta, box, scale for heat time t
+    const double cut = options.k * std::sqrt(t), delta = std::sqrt(4 * t);
+    // Boxes of width <= delta / 2: sources and targets within a quarter of delta of their box
+    // centre. At most a third of the cut, so that the two ends of a box's windows stay apart.
+    return std::array<double, 4>{cut, delta, std::min(0.5 * delta, cut / 3), 1.0 / (t * std::sqrt(4 * kPi * t))};
+  };
+  std::tie(cut_, delta_, box_, scale_) = std::tuple_cat(geometry(t_));
   // The Hermite (whole boxes), the Taylor (their sum at a target) and the band (window ends)
   // truncations each get a tenth of the budget.
   order_ = hermite_order(0.5 * box_ / delta_, 0.1 * epsilon);
-  scale_ = 1.0 / (t_ * std::sqrt(4 * kPi * t_));
 
-  const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
   mass_ = e.mu;
   s_ = e.s;
   positions_ = e.positions;
@@ -104,8 +119,9 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   Eigen::Index most_boxes = 0, planned_rows = 0, planned_boxes = 0;
   for (std::size_t c = 0; c + 1 < offset_.size(); ++c) {
     const Eigen::Index n = offset_[c + 1] - offset_[c];
-    const double boxes = std::ceil(e.length[c] / box_);  // a double: P / box may exceed any integer
-    direct[c] = cut_ >= 0.5 * e.length[c] || n < 64 || boxes < 8 || boxes > static_cast<double>(n);
+    const auto [cut_c, delta_c, box_c, scale_c] = geometry(contour_t[c]);
+    const double boxes = std::ceil(e.length[c] / box_c);  // a double: P / box may exceed any integer
+    direct[c] = cut_c >= 0.5 * e.length[c] || n < 64 || boxes < 8 || boxes > static_cast<double>(n);
     if (direct[c]) continue;
     most_boxes = std::max(most_boxes, static_cast<Eigen::Index>(boxes));
     planned_rows += n;
@@ -116,7 +132,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   reach_ = std::min<Eigen::Index>(static_cast<Eigen::Index>(std::min(std::ceil(cut_ / box_), 1e15)) + 2, most_boxes);
   // Estimate before allocating: per row the windows, element arrays and band factors (about
   // 17 doubles, and 4 band entries of 2 doubles for a planned row), per box its plan and moments.
-  const double bytes = 8.0 * (17.0 * static_cast<double>(n_all) + 8.0 * static_cast<double>(planned_rows)) +
+  const double bytes = 8.0 * (18.0 * static_cast<double>(n_all) + 8.0 * static_cast<double>(planned_rows)) +
                        static_cast<double>(planned_boxes) * (sizeof(TargetBox) + 16.0 + 8.0 * order_) +
                        8.0 * static_cast<double>(2 * reach_ + 1) * terms;
   if (bytes > options.memory_limit_bytes) {
@@ -139,24 +155,28 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     ct.offset = offset_[c];
     ct.n = offset_[c + 1] - offset_[c];
     ct.P = e.length[c];
+    ct.t = contour_t[c];
+    std::tie(ct.cut, ct.delta, ct.box, ct.scale) = std::tuple_cat(geometry(ct.t));
     const double* s = s_.data() + ct.offset;
 #pragma omp parallel for schedule(static)
     for (Eigen::Index i = 0; i < ct.n; ++i) {
-      const detail::GeodesicWindow w = detail::geodesic_window(s, ct.n, i, ct.P, cut_);
+      const detail::GeodesicWindow w = detail::geodesic_window(s, ct.n, i, ct.P, ct.cut);
       back_[ct.offset + i] = w.back;
       fwd_[ct.offset + i] = w.fwd;
     }
     ct.direct = direct[c];
     if (!ct.direct) {
-      ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / box_));
+      ct.boxes = static_cast<Eigen::Index>(std::ceil(ct.P / ct.box));
       plan_contour(ct, epsilon);
     }
     contours_.push_back(std::move(ct));
   }
+  row_scale_.resize(n_all);
+  for (const Contour& ct : contours_) row_scale_.segment(ct.offset, ct.n).setConstant(ct.scale);
   transform_of_mass_.resize(n_all);
   gauss_transform(mass_.data(), transform_of_mass_.data());
   // L_ii = -c sum_{j != i} G(d_ij) mu_j; the transform includes j = i with G(0) = 1.
-  diagonal_ = -scale_ * (transform_of_mass_ - mass_);
+  diagonal_ = -row_scale_.cwiseProduct(transform_of_mass_ - mass_);
 }
 
 double MatrixFreeLaplacian::direct_share() const {
@@ -190,7 +210,7 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
   ct.box_of.resize(static_cast<std::size_t>(n));
   ct.box_start.assign(static_cast<std::size_t>(ct.boxes + 1), n);
   for (Eigen::Index j = n - 1; j >= 0; --j) {
-    const Eigen::Index k = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(s[j] / box_), 0, ct.boxes - 1);
+    const Eigen::Index k = std::clamp<Eigen::Index>(static_cast<Eigen::Index>(s[j] / ct.box), 0, ct.boxes - 1);
     ct.box_of[j] = k;
     ct.box_start[k] = j;
   }
@@ -208,7 +228,7 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
     if (i0 > i1) continue;
     TargetBox& tb = ct.plan[kt];
-    const double centre = (kt + 0.5) * box_;
+    const double centre = (kt + 0.5) * ct.box, delta = ct.delta;
     Eigen::Index lo_min = 2 * n, hi_max = -n, core_lo = -n, core_hi = 2 * n;
     double alpha_max = 0;
     for (Eigen::Index i = i0; i <= i1; ++i) {
@@ -217,7 +237,7 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
       hi_max = std::max(hi_max, hi);
       core_lo = std::max(core_lo, lo);
       core_hi = std::min(core_hi, hi);
-      alpha_max = std::max(alpha_max, std::abs(s[i] - centre) / delta_);
+      alpha_max = std::max(alpha_max, std::abs(s[i] - centre) / delta);
     }
     tb.direct = true;  // unless the split below is sound
     if (core_lo > core_hi || lo_min < -n || hi_max >= 2 * n) continue;
@@ -233,8 +253,8 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     for (int b = 0; b < 2; ++b) {
       const double first = position(bands[b]->lo), last = position(bands[b]->hi);
       centre_of[b] = 0.5 * (first + last);
-      half[b] = 0.5 * (last - first) / delta_;
-      offset[b] = (centre_of[b] - centre) / delta_;
+      half[b] = 0.5 * (last - first) / delta;
+      offset[b] = (centre_of[b] - centre) / delta;
     }
     // Error of the band series: every term of the exact sum is |f_j| G_ij, and the factored
     // form errs by at most |f_j| G_ij e^(-2 alpha beta) times the series' remainder, with
@@ -250,13 +270,13 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
       band.data = band_beta_.size();
       for (Eigen::Index u = band.lo; u <= band.hi; ++u) {
         const double x_u = position(u);
-        band_beta_.push_back((x_u - centre_of[b]) / delta_);
-        const double d = (x_u - centre) / delta_;
+        band_beta_.push_back((x_u - centre_of[b]) / delta);
+        const double d = (x_u - centre) / delta;
         band_weight_.push_back(std::exp(-d * d));
       }
     }
     for (Eigen::Index i = i0; i <= i1; ++i) {
-      const double a = (s[i] - centre) / delta_;
+      const double a = (s[i] - centre) / delta;
       alpha_[ct.offset + i] = a;
       tau_forward_[ct.offset + i] = std::exp(2 * offset[0] * a - a * a);
       tau_backward_[ct.offset + i] = std::exp(2 * offset[1] * a - a * a);
@@ -268,7 +288,7 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
                                       double* oc) const {
   const double* s = s_.data() + ct.offset;
   const Eigen::Index n = ct.n;
-  const double inv_4t = 1.0 / (4 * t_);
+  const double inv_4t = 1.0 / (4 * ct.t);
   for (Eigen::Index i = i0; i <= i1; ++i) {
     double sum = 0;
     for (Eigen::Index m = -back_[ct.offset + i]; m <= fwd_[ct.offset + i]; ++m) {
@@ -289,7 +309,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
   double inverse_factorial[64];
   inverse_factorial[0] = 1;
   for (int q = 1; q < 64; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
-  const double inv_delta = 1.0 / delta_;
+  const double inv_delta = 1.0 / ct.delta, box = ct.box;
   {
     if (ct.direct) {
 #pragma omp parallel for schedule(dynamic, 64)
@@ -303,7 +323,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
     double* H = box_moments_.data();
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < ct.boxes; ++k) {
-      const double centre = (k + 0.5) * box_;
+      const double centre = (k + 0.5) * box;
       double acc[64] = {0}, power[64];
       for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
         scaled_powers(fc[j], (s[j] - centre) * inv_delta, p, power);  // f_j v^q
@@ -358,7 +378,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
           direct_sums(ct, i0, i1, fc, oc);
           continue;
         }
-        const double centre = (kt + 0.5) * box_;
+        const double centre = (kt + 0.5) * box;
         // The core's whole boxes: Hermite to Taylor translation about the box centre,
         // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
         for (int q = 0; q < p; ++q) local[q] = 0;
@@ -368,7 +388,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
           if (shift == 0.0 && d >= -reach_ && d <= reach_)
             h = hermite_at_offset_.data() + static_cast<std::size_t>(d + reach_) * terms;
           else
-            hermite_functions((centre - ((k + 0.5) * box_ + shift)) / delta_, terms, h_wrapped);
+            hermite_functions((centre - ((k + 0.5) * box + shift)) * inv_delta, terms, h_wrapped);
           const double* moments = H + k * p;
           double factor = 1.0;
           for (int m = 0; m < p; ++m) {
@@ -422,7 +442,7 @@ void MatrixFreeLaplacian::apply(const double* x, double* y) const {
   gauss_transform(f, g);
   // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
 #pragma omp parallel for schedule(static)
-  for (Eigen::Index i = 0; i < n; ++i) y[i] = scale_ * (g[i] - x[i] * transform_of_mass_[i]);
+  for (Eigen::Index i = 0; i < n; ++i) y[i] = row_scale_[i] * (g[i] - x[i] * transform_of_mass_[i]);
 }
 
 void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
@@ -436,7 +456,7 @@ void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* 
   const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
   for (Eigen::Index i = 0; i < ct.n; ++i) f[i] = mass[i] * x[i];
   contour_transform(ct, f, g);
-  for (Eigen::Index i = 0; i < ct.n; ++i) y[i] = scale_ * (g[i] - x[i] * transform_of_mass[i]);
+  for (Eigen::Index i = 0; i < ct.n; ++i) y[i] = ct.scale * (g[i] - x[i] * transform_of_mass[i]);
 }
 
 Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
@@ -448,6 +468,12 @@ Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
 
 Eigen::VectorXd MatrixFreeLaplacian::apply_stiffness(const Eigen::VectorXd& x) const {
   return mass_.cwiseProduct(*this * x);
+}
+
+std::vector<double> MatrixFreeLaplacian::contour_t() const {
+  std::vector<double> t;
+  for (const Contour& ct : contours_) t.push_back(ct.t);
+  return t;
 }
 
 std::vector<double> MatrixFreeLaplacian::contour_lengths() const {
@@ -516,7 +542,7 @@ private:
 // tridiagonal (cyclic) factorization, O(N). In the symmetric form: T_y = M^(1/2) T M^(1/2).
 class ArclengthPreconditioner {
 public:
-  ArclengthPreconditioner(const MatrixFreeLaplacian& op, std::size_t contour) : t_(op.t()) {
+  ArclengthPreconditioner(const MatrixFreeLaplacian& op, std::size_t contour) : t_(op.contour_t()[contour]) {
     const Eigen::Index first = op.row_offset()[contour], n = op.row_offset()[contour + 1] - first;
     const double length = op.contour_lengths()[contour];
     const Eigen::VectorXd mass = op.mass().segment(first, n);
@@ -661,7 +687,7 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   // Contour by contour (the operator is block-diagonal by contour), then merged: repeated
   // eigenvalues of identical contours are all counted (spectrum_parts.hpp).
   Spectrum s = detail::merge_parts(contour_parts(op, o.count, o), op.rows(), o.count);
-  s.laplace_beltrami = laplace_beltrami_eigenvalues(s.eigenvalues, op.t(), &s.undefined_estimates);
+  detail::laplace_beltrami_by_contour(s, op.row_offset(), op.contour_t());
   return s;
 }
 
@@ -669,10 +695,11 @@ std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian&
   if (o.count < 1) throw Error("smallest_eigenpairs_per_contour: count must be >= 1, got " + std::to_string(o.count));
   detail::check_eigen_request(op.mass(), 1);  // masses > 0
   std::vector<Spectrum> spectra;
+  const std::vector<double> contour_t = op.contour_t();
   for (detail::SpectrumPart& part : contour_parts(op, o.count, o)) {
     spectra.push_back(std::move(part.spectrum));
-    spectra.back().laplace_beltrami =
-        laplace_beltrami_eigenvalues(spectra.back().eigenvalues, op.t(), &spectra.back().undefined_estimates);
+    spectra.back().laplace_beltrami = laplace_beltrami_eigenvalues(spectra.back().eigenvalues, contour_t[spectra.size() - 1],
+                                                                   &spectra.back().undefined_estimates);
   }
   return spectra;
 }

@@ -25,6 +25,7 @@ Measures measures(const ContourSet& contours, const LinelNormals& normals) {
   Measures out;
   out.length_scale = normals.length_scale;
   out.normal_radius = normals.radius;
+  out.contour_length_scales = normals.contour_length_scales;
   out.contours.resize(contours.contours.size());
   for (std::size_t c = 0; c < contours.contours.size(); ++c) {
     const Contour& contour = contours.contours[c];

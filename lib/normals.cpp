@@ -29,14 +29,27 @@ Eigen::Vector2d covariance_normal(const detail::Moments& mo, const Eigen::Vector
   return normal;
 }
 
+// Per-contour length scales, l where a contour was too short to be sampled (l_c = 0).
+std::vector<double> with_fallback(std::vector<double> per_contour, double l) {
+  for (double& l_c : per_contour)
+    if (!(l_c > 0)) l_c = l;
+  return per_contour;
+}
+
 }  // namespace
 
 LinelNormals ii_normals(const DigitalSet& set, const ContourSet& contours, const IINormalOptions& options) {
   require_positive("ii_normals: k_R", options.k_R);
   const double h = set.h();
   double l = options.length_scale;
-  if (l != 0) require_positive("ii_normals: length_scale", l);
-  else l = length_scale(set, contours, {LengthScaleOptions{}.k_R, options.length_quantile}).length;
+  std::vector<double> per_contour;
+  if (l != 0) {
+    require_positive("ii_normals: length_scale", l);
+  } else {
+    const LengthScale measured = length_scale(set, contours, {LengthScaleOptions{}.k_R, options.length_quantile});
+    l = measured.length;
+    per_contour = with_fallback(measured.per_contour, l);
+  }
   const double R = options.k_R * std::cbrt(h) * std::pow(l, 2.0 / 3.0);
   const double rho = R / h;
   if (!set.empty()) {
@@ -58,6 +71,7 @@ LinelNormals ii_normals(const DigitalSet& set, const ContourSet& contours, const
   LinelNormals normals(contours.contours.size());
   normals.length_scale = l;
   normals.radius = R;
+  normals.contour_length_scales = std::move(per_contour);
   for (std::size_t c = 0; c < contours.contours.size(); ++c) {
     const Contour& contour = contours.contours[c];
     const auto n = static_cast<std::int64_t>(contour.size());
@@ -78,8 +92,13 @@ LinelNormals ii_normals(const DigitalSet& set, const ContourSet& contours, const
 
 LinelNormals exact_normals(const Shape& shape, const ContourSet& contours, double l) {
   LinelNormals normals(contours.contours.size());
-  if (l != 0) require_positive("exact_normals: length_scale", l);
-  else l = length_scale(digitize(shape, contours.h), contours).length;
+  if (l != 0) {
+    require_positive("exact_normals: length_scale", l);
+  } else {
+    const LengthScale measured = length_scale(digitize(shape, contours.h), contours);
+    l = measured.length;
+    normals.contour_length_scales = with_fallback(measured.per_contour, l);
+  }
   normals.length_scale = l;
   for (std::size_t c = 0; c < contours.contours.size(); ++c) {
     const auto n = static_cast<std::int64_t>(contours.contours[c].size());

@@ -341,16 +341,21 @@ std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op,
       }
     const Eigen::Index n = op.row_offset[c + 1] - op.row_offset[c];
     spectra.push_back(detail::merge_parts(of_contour, n, static_cast<int>(std::min<Eigen::Index>(o.count, n))));
-    if (op.t > 0)
+    const double t_c = op.contour_t.size() + 1 == op.row_offset.size() ? op.contour_t[c] : op.t;
+    if (t_c > 0)
       spectra.back().laplace_beltrami =
-          laplace_beltrami_eigenvalues(spectra.back().eigenvalues, op.t, &spectra.back().undefined_estimates);
+          laplace_beltrami_eigenvalues(spectra.back().eigenvalues, t_c, &spectra.back().undefined_estimates);
   }
   return spectra;
 }
 
 Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options) {
   Spectrum s = smallest_eigenpairs(op.A, op.mass, options);
-  if (op.t > 0) s.laplace_beltrami = laplace_beltrami_eigenvalues(s.eigenvalues, op.t, &s.undefined_estimates);
+  if (op.t <= 0) return s;
+  // Per contour when their times differ (geodesic: each eigenvector lives on one contour; with
+  // the Euclidean distance all contours share one t).
+  const std::vector<double> one_t(op.row_offset.size() - 1, op.t);  // an operator built by hand
+  detail::laplace_beltrami_by_contour(s, op.row_offset, op.contour_t.size() + 1 == op.row_offset.size() ? op.contour_t : one_t);
   return s;
 }
 

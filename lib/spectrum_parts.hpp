@@ -32,6 +32,13 @@ Spectrum merge_parts(const std::vector<SpectrumPart>& parts, Eigen::Index n, int
 /// the symmetric form M^(-1/2) (-A) M^(-1/2); M-orthonormal vectors, signs fixed.
 Spectrum dense_spectrum(const Eigen::MatrixXd& A, const Eigen::VectorXd& mass, int count);
 
+/// Fills s.laplace_beltrami (and undefined_estimates) when contours have their own heat times:
+/// each eigenvector lives on one contour (the operator is block-diagonal by contour), the one of
+/// its largest entry, whose time its estimate takes. Rows of contour c are
+/// [row_offset[c], row_offset[c + 1]).
+void laplace_beltrami_by_contour(Spectrum& s, const std::vector<Eigen::Index>& row_offset,
+                                 const std::vector<double>& contour_t);
+
 /// A fixed sign for each eigenvector: its entry of largest magnitude (the first, on ties) is
 /// positive. The solvers' own sign depends on rounding, hence on the number of threads.
 void fix_signs(Eigen::MatrixXd& vectors);

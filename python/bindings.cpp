@@ -251,21 +251,26 @@ PYBIND11_MODULE(_digilap, m) {
       .def_property_readonly("row_offset", [](const ContourOperator& op) { return op.row_offset; })
       .def_readonly("contour_length", &ContourOperator::contour_length)
       .def_readonly("t", &ContourOperator::t)
+      .def_readonly("contour_t", &ContourOperator::contour_t)
       .def_readonly("cut", &ContourOperator::cut)
       .def_readonly("length_scale", &ContourOperator::length_scale)
       .def("rows", &ContourOperator::rows);
   m.def("heat_laplacian", [](const ContourSet& c, const Measures& mu, double t, double c_t, double k, const std::string& d,
-                             const std::string& p, bool richardson, bool stiffness, double length_scale, double memory_limit) {
+                             const std::string& p, bool richardson, bool stiffness, double length_scale, double memory_limit,
+                             bool per_contour_time) {
         HeatLaplacianOptions o;
         o.t = t, o.c_t = c_t, o.k = k, o.distance = distance_of(d), o.placement = placement_of(p), o.richardson = richardson;
         o.stiffness = stiffness, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
+        o.per_contour_time = per_contour_time;
         return std::shared_ptr<ContourOperator>(new ContourOperator(heat_laplacian(c, mu, o)));  // elided: no copy of L, A
       }, py::arg("contours"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
       py::arg("k") = HeatLaplacianOptions{}.k, py::arg("distance") = "geodesic", py::arg("placement") = "pointels",
       py::arg("richardson") = false, py::arg("stiffness") = true, py::arg("length_scale") = 0.0,
-      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
+      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes,
+      py::arg("per_contour_time") = HeatLaplacianOptions{}.per_contour_time, Release(),
       "The heat-kernel Laplacian of SPEC §4: (L g)_i = 1/(t sqrt(4 pi t)) sum_j exp(-d_ij^2/(4t)) (g_j - g_i) mu_j over\n"
-      "d_ij <= k sqrt(t). t = 0 means c_t h^(2/3) l^(4/3) (l: the measures' length scale, or length_scale).\n"
+      "d_ij <= k sqrt(t). t = 0 means c_t h^(2/3) l^(4/3) (l: the measures' length scale, or length_scale),\n"
+      "in geodesic mode each contour's own l_c unless per_contour_time=False (op.contour_t).\n"
       "distance: 'geodesic' (along the contour) or 'euclidean'; placement: 'pointels' or 'linels'.\n"
       "Returns a ContourOperator: L (+Laplace-Beltrami, negative semidefinite), A = M L (symmetric), M.");
   m.def("dec_laplacian", [](const ContourSet& c, const Measures& mu, bool corrected) {
@@ -296,6 +301,7 @@ PYBIND11_MODULE(_digilap, m) {
            py::arg("k") = HeatLaplacianOptions{}.k, py::arg("epsilon") = 1e-10)
       .def("rows", &MatrixFreeLaplacian::rows)
       .def_property_readonly("t", &MatrixFreeLaplacian::t)
+      .def_property_readonly("contour_t", &MatrixFreeLaplacian::contour_t)
       .def_property_readonly("mass", &MatrixFreeLaplacian::mass)
       .def("matvec", [](const MatrixFreeLaplacian& op, const Eigen::VectorXd& x) {
         if (x.size() != op.rows())

@@ -38,9 +38,14 @@ double relative_error(const Shape& shape, const ContourOperator& op, const TestF
   return (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff();
 }
 
-// SPEC §4 evaluated literally, O(N^2), dense.
+// SPEC §4 evaluated literally, O(N^2), dense. Geodesic with a measured l: contour c has its own
+// t_c = c_t h^(2/3) l_c^(4/3) (HeatLaplacianOptions::per_contour_time).
 Eigen::MatrixXd brute_force(const ContourSet& cs, const Measures& m, const HeatLaplacianOptions& o) {
-  const double t = heat_time(cs.h, o, m), cut = o.k * std::sqrt(t);
+  const bool own_t = o.distance == DistanceMode::Geodesic && o.per_contour_time && o.t == 0 && o.length_scale == 0 &&
+                     !m.contour_length_scales.empty();
+  auto t_of = [&](std::size_t c) {
+    return own_t ? o.c_t * std::pow(cs.h, 2.0 / 3.0) * std::pow(m.contour_length_scales[c], 4.0 / 3.0) : heat_time(cs.h, o, m);
+  };
   std::vector<Eigen::Vector2d> pos;
   std::vector<double> mu, s;
   std::vector<std::size_t> contour;
@@ -60,6 +65,7 @@ Eigen::MatrixXd brute_force(const ContourSet& cs, const Measures& m, const HeatL
   for (std::size_t i = 0; i < n; ++i)
     for (std::size_t j = 0; j < n; ++j) {
       if (i == j) continue;
+      const double t = t_of(contour[i]), cut = o.k * std::sqrt(t);
       double d;
       if (o.distance == DistanceMode::Euclidean) {
         d = (pos[i] - pos[j]).norm();
@@ -171,9 +177,17 @@ TEST(HeatLaplacian, SeveralContoursInGeodesicAndEuclideanModes) {
   ASSERT_EQ(cs.contours.size(), 3u);
   const Measures m = measures(cs, ii_normals(set, cs, {0.3}));
   HeatLaplacianOptions o;
+  expect_matches_brute_force(cs, m, o);  // each contour with its own t
+  const std::vector<double> own = heat_laplacian(cs, m, o).contour_t;
+  EXPECT_GT(*std::max_element(own.begin(), own.end()), 1.1 * *std::min_element(own.begin(), own.end()));  // measured 1.27
+  o.per_contour_time = false;  // one t, from the set's l
   expect_matches_brute_force(cs, m, o);
-  o.distance = DistanceMode::Euclidean;
+  const std::vector<double> one = heat_laplacian(cs, m, o).contour_t;
+  EXPECT_EQ(one, std::vector<double>(3, heat_time(cs.h, o, m)));
+  o.per_contour_time = true;
+  o.distance = DistanceMode::Euclidean;  // contours interact: one t whatever per_contour_time says
   expect_matches_brute_force(cs, m, o);
+  EXPECT_EQ(heat_laplacian(cs, m, o).contour_t, one);
   const ContourOperator op = heat_laplacian(cs, m, o);
   EXPECT_EQ(op.element(op.row_offset[2]).first, 2u);
   EXPECT_EQ(op.element(op.row_offset[2] + 5).second, 5u);

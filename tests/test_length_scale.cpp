@@ -5,6 +5,7 @@
 #include "digilap/heat_flow.hpp"
 #include "digilap/image.hpp"
 #include "digilap/length_scale.hpp"
+#include "digilap/matrix_free.hpp"
 #include "digilap/spectrum.hpp"
 
 #include <gtest/gtest.h>
@@ -212,6 +213,7 @@ TEST(LengthScale, ExplicitValuesAreUsedAsGiven) {
   // Measures built by hand carry no length scale: the default t is refused with the reason.
   Measures bare = r.mu;
   bare.length_scale = 0;
+  bare.contour_length_scales.clear();
   try {
     heat_laplacian(r.contours, bare);
     ADD_FAILURE() << "no error";
@@ -220,4 +222,83 @@ TEST(LengthScale, ExplicitValuesAreUsedAsGiven) {
   }
   EXPECT_THROW(length_scale(r.set, r.contours, {2.0, 1.5}), Error);
   EXPECT_THROW(length_scale(r.set, r.contours, {-1.0, 0.02}), Error);
+}
+
+// Contours that do not interact (geodesic distance) each get their own heat time from their own
+// length scale: a speck does not set t for a large contour, nor a large contour for a speck.
+// A disc of radius 60 pixels and one of 8, apart. The large disc's rows are the rows of the
+// large disc alone (same l, same R, same t: bitwise); the small disc's t follows its own l_c.
+// The Laplace-Beltrami estimates of each contour use its t: within 0.5% of (2 pi m / P_c)^2
+// for m = 1..3 on both (measured below). The matrix-free operator takes the same times.
+TEST(LengthScale, EachContourHasItsOwnHeatTime) {
+  const double h = 1.0 / 200;
+  std::vector<Eigen::Vector2i> large, both;
+  for (int j = -70; j <= 70; ++j)
+    for (int i = -70; i <= 70; ++i)
+      if (std::hypot(i + 0.31, j - 0.17) < 60) large.emplace_back(i, j);
+  both = large;
+  for (int j = -10; j <= 10; ++j)
+    for (int i = -10; i <= 10; ++i)
+      if (std::hypot(i + 0.23, j + 0.41) < 8) both.emplace_back(i + 100, j);
+  auto pipeline = [h](const std::vector<Eigen::Vector2i>& pixels, bool own_times) {
+    Pipeline r;
+    r.set = DigitalSet::from_pixels(h, pixels);
+    r.contours = track_contours(r.set);
+    r.mu = measures(r.contours, ii_normals(r.set, r.contours));
+    HeatLaplacianOptions o;
+    o.per_contour_time = own_times;
+    r.op = heat_laplacian(r.contours, r.mu, o);
+    return r;
+  };
+  const Pipeline alone = pipeline(large, true), pair = pipeline(both, true), shared = pipeline(both, false);
+  ASSERT_EQ(pair.contours.contours.size(), 2u);
+  const std::size_t big = pair.op.row_offset[1] - pair.op.row_offset[0] > pair.op.row_offset[2] - pair.op.row_offset[1] ? 0 : 1;
+  const std::size_t small = 1 - big;
+  // The large disc: the same t and the same rows as alone.
+  EXPECT_EQ(pair.op.contour_t[big], alone.op.t);
+  EXPECT_EQ(pair.op.t, alone.op.t);  // the operator reports the contour with the most rows
+  const Eigen::Index first = pair.op.row_offset[big], n = pair.op.row_offset[big + 1] - first;
+  ASSERT_EQ(n, alone.op.rows());
+  const Eigen::MatrixXd rows = Eigen::MatrixXd(pair.op.L).block(first, first, n, n);
+  EXPECT_EQ((rows - Eigen::MatrixXd(alone.op.L)).cwiseAbs().maxCoeff(), 0.0);
+  // The small disc: its own, smaller t, from its own l (about 8 against 60 pixels).
+  const double ratio = pair.op.contour_t[small] / pair.op.contour_t[big];
+  const double l_ratio = pair.mu.contour_length_scales[small] / pair.mu.contour_length_scales[big];
+  EXPECT_NEAR(ratio, std::pow(l_ratio, 4.0 / 3.0), 1e-12);
+  EXPECT_LT(l_ratio, 0.25);
+  EXPECT_EQ(shared.op.contour_t[small], shared.op.contour_t[big]);
+  // Laplace-Beltrami estimates per contour, each with its own t, against the exact (2 pi m / P)^2.
+  SpectrumOptions so;
+  so.count = 7;
+  for (const Pipeline* p : {&pair, &shared}) {
+    const std::vector<Spectrum> spectra = smallest_eigenpairs_per_contour(p->op, so);
+    double worst = 0;
+    for (std::size_t c = 0; c < 2; ++c)
+      for (int m = 1; m <= 3; ++m)
+        for (int copy = 0; copy < 2; ++copy) {
+          const double exact = std::pow(2 * 3.14159265358979323846 * m / p->op.contour_length[c], 2);
+          worst = std::max(worst, std::abs(spectra[c].laplace_beltrami[2 * m - 1 + copy] / exact - 1));
+        }
+    std::printf("%s times: worst Laplace-Beltrami estimate, m = 1..3, both contours: %.3f%%\n",
+                p == &pair ? "own" : "shared", 100 * worst);
+    if (p == &pair) EXPECT_LT(worst, 0.005);
+  }
+  // The joint spectrum's estimates take each eigenvector's contour's t: the same values.
+  so.count = 14;
+  const Spectrum joint = smallest_eigenpairs(pair.op, so);
+  const std::vector<Spectrum> apart = smallest_eigenpairs_per_contour(pair.op, so);
+  for (Eigen::Index k = 0; k < joint.eigenvalues.size(); ++k) {
+    double nearest = 1e300;
+    for (const Spectrum& s : apart)
+      for (Eigen::Index j = 0; j < s.eigenvalues.size(); ++j)
+        if (std::abs(s.eigenvalues[j] - joint.eigenvalues[k]) < 1e-9 * (1 + joint.eigenvalues[k]))
+          nearest = std::min(nearest, std::abs(s.laplace_beltrami[j] - joint.laplace_beltrami[k]));
+    EXPECT_LT(nearest, 1e-8 * (1 + joint.laplace_beltrami[k])) << k;
+  }
+  // Matrix-free: the same times, the same products (within its error bound 1e-10 of the scale).
+  const MatrixFreeLaplacian mf(pair.contours, pair.mu);
+  EXPECT_EQ(mf.contour_t(), pair.op.contour_t);
+  const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(pair.op.rows(), -1.0, 2.0).array().sin();
+  const Eigen::VectorXd exact = pair.op.L * x;
+  EXPECT_LT((mf * x - exact).cwiseAbs().maxCoeff(), 1e-9 * Eigen::VectorXd(pair.op.L.diagonal()).cwiseAbs().maxCoeff());
 }

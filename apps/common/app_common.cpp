@@ -2,6 +2,7 @@
 
 #include "digilap/surface/volume.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -78,6 +79,17 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
       ->default_str("pointels");
   app.add_option("--memory-limit", o.memory_limit_bytes, "Refuse operators estimated larger than this many bytes")
       ->capture_default_str();
+  app.add_flag("--one-heat-time{false}", o.per_contour_time,
+               "Geodesic: one t for all contours, from the set's l (default: each contour's own l_c)");
+}
+
+std::string per_contour_note(const std::vector<double>& contour_t) {
+  if (contour_t.size() < 2) return "";
+  const auto [lo, hi] = std::minmax_element(contour_t.begin(), contour_t.end());
+  if (*lo == *hi) return "";
+  char text[96];
+  std::snprintf(text, sizeof text, " (the largest contour's; one per contour, %.4g to %.4g)", *lo, *hi);
+  return text;
 }
 
 void Progress::start(const std::string& stage) {

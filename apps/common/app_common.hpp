@@ -33,6 +33,8 @@ struct FrontEndOptions {
 
 void add_front_end_options(CLI::App& app, FrontEndOptions& options, bool with_h = true);
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& options);
+/// "" when the contours share one heat time, else a note with the range of their own times.
+std::string per_contour_note(const std::vector<double>& contour_t);
 
 /// Progress and stage timing on stderr; silent with --quiet.
 class Progress {

@@ -67,8 +67,9 @@ int main(int argc, char** argv) {
     std::printf("shape %s, h = %g: %zu contour(s), N = %ld elements, nnz(L) = %ld\n", fe.name.c_str(),
                 fe.contours.h, fe.contours.contours.size(), static_cast<long>(op.rows()),
                 static_cast<long>(op.L.nonZeros()));
-    std::printf("length scale l = %.6g, II radius R = %.6g, t = %.6g, cut = k sqrt(t) = %.6g, estimated length %.10g",
-                fe.measures.length_scale, fe.measures.normal_radius, op.t, op.cut, fe.measures.total_length());
+    std::printf("length scale l = %.6g, II radius R = %.6g, t = %.6g%s, cut = k sqrt(t) = %.6g, estimated length %.10g",
+                fe.measures.length_scale, fe.measures.normal_radius, op.t, app::per_contour_note(op.contour_t).c_str(), op.cut,
+                fe.measures.total_length());
     if (fe.shape)
       std::printf(" (exact %.10g, relative error %.2e)", fe.exact_length, fe.measures.total_length() / fe.exact_length - 1.0);
     std::printf("\n");

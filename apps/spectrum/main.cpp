@@ -114,7 +114,7 @@ int main(int argc, char** argv) {
     // What the tables and files need, from either operator.
     // One spectrum for the whole set, or one per contour (vectors on the contour's own rows).
     std::vector<Spectrum> spectra;
-    std::vector<double> lengths;
+    std::vector<double> lengths, contour_t;
     Eigen::MatrixX2d positions;
     Eigen::VectorXd arclength;
     std::vector<Eigen::Index> row_offset;
@@ -141,6 +141,7 @@ int main(int argc, char** argv) {
       arclength = op.arclength();
       row_offset = op.row_offset();
       t = op.t();
+      contour_t = op.contour_t();
       lengths = op.contour_lengths();
     } else {
       const ContourOperator op = app::build_operator(fe, op_options, progress);
@@ -152,6 +153,7 @@ int main(int argc, char** argv) {
       arclength = op.arclength;
       row_offset = op.row_offset;
       t = op.t;
+      contour_t = op.contour_t;
       lengths = op.contour_length;
     }
     const Eigen::Index rows = positions.rows();
@@ -160,9 +162,9 @@ int main(int argc, char** argv) {
     for (const Spectrum& s : spectra) iterations += s.iterations, operations += s.operations;
 
     // Images have no exact curve: the exact column then uses the estimated length.
-    std::printf("# %s, h = %g, N = %ld, %zu contour(s), l = %.4g, R = %.4g, t = %.4g, %s: %d iterations, %d operator applications\n",
+    std::printf("# %s, h = %g, N = %ld, %zu contour(s), l = %.4g, R = %.4g, t = %.4g%s, %s: %d iterations, %d operator applications\n",
                 fe.name.c_str(), fe.contours.h, static_cast<long>(rows), contours, fe.measures.length_scale,
-                fe.measures.normal_radius, t,
+                fe.measures.normal_radius, t, app::per_contour_note(contour_t).c_str(),
                 matrix_free ? "matrix-free" : "factorized", iterations, operations);
     if (!per_contour && contours > 1)
       std::printf("# several contours: their spectra mix (one 0 per contour); m and the exact columns assume contour 0 "
@@ -178,9 +180,10 @@ int main(int argc, char** argv) {
       const Spectrum& s = spectra[part];
       const double P_est = lengths[part];
       const double P = fe.shape && contours == 1 ? fe.exact_length : P_est;
+      const double t_part = contour_t[part];  // the joint table's m, P and t are contour 0's
       if (per_contour)
-        std::printf("\n## contour %zu: %ld rows, P = %.8g (estimated %.8g)\n", part,
-                    static_cast<long>(row_offset[part + 1] - row_offset[part]), P, P_est);
+        std::printf("\n## contour %zu: %ld rows, P = %.8g (estimated %.8g), t = %.4g\n", part,
+                    static_cast<long>(row_offset[part + 1] - row_offset[part]), P, P_est, t_part);
       else
         std::printf("# P = %.8g (estimated %.8g)\n", P, P_est);
       std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t: their Laplace-Beltrami estimates "
@@ -189,7 +192,7 @@ int main(int argc, char** argv) {
       std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
       for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
         const int m = static_cast<int>((k + 1) / 2);
-        const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t);
+        const double exact = heat_kernel_eigenvalue(m, P, 0.0), formula = heat_kernel_eigenvalue(m, P_est, t_part);
         const double lambda = s.eigenvalues[k], mu = s.laplace_beltrami[k];
         const bool second_of_pair = m > 0 && k == 2 * m && k < s.eigenvalues.size();
         char split[32] = "", mu_text[48], mu_diff[32] = "", ratio[48] = "";
@@ -213,7 +216,7 @@ int main(int argc, char** argv) {
       }
       if (s.undefined_estimates > 0)
         std::printf("%d eigenvalue(s) with lambda t >= 1 have no Laplace-Beltrami estimate (the heat-kernel operator's "
-                    "spectrum stops at 1/t = %.4g): use a smaller t\n", s.undefined_estimates, 1 / t);
+                    "spectrum stops at 1/t = %.4g): use a smaller t\n", s.undefined_estimates, 1 / t_part);
     }
     // Eigenvector k on every row: from the joint spectrum, or each contour's own k-th vector.
     Eigen::Index columns = 0;

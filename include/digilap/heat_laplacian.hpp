@@ -43,6 +43,12 @@ struct HeatLaplacianOptions {
   /// (what the normals measured on the set, length_scale.hpp). Give 1 for the former
   /// t = c_t h^(2/3) in the set's units.
   double length_scale = 0.0;
+  /// Geodesic distance with a measured l: each contour gets its own heat time
+  /// c_t h^(2/3) l_c^(4/3) from its own length scale l_c (Measures::contour_length_scales), since
+  /// contours do not interact: a speck does not shrink the time of a large contour, nor does a
+  /// large contour's time swamp a small one. false: one t for all, from the set's l. Contours
+  /// that interact (Euclidean distance) always share one t; a given t or l is used for all.
+  bool per_contour_time = true;
   /// Kernel cut at distance k * sqrt(t). k = 6 leaves under 1e-3 of the kernel's second moment
   /// outside (DGtal's K = 3 in its K sqrt(2t) convention is our k = 4.24).
   double k = 6.0;
@@ -72,9 +78,14 @@ struct ContourOperator {
   std::vector<Eigen::Index> row_offset;  ///< rows of contour c: [row_offset[c], row_offset[c+1])
   std::vector<double> contour_length;    ///< estimated length P of each contour
   Placement placement = Placement::Pointels;
-  double t = 0.0;    ///< heat time used (0 for the DEC baselines)
-  double length_scale = 0.0;  ///< l behind the default t (0 when t was given)
+  /// Heat time used (0 for the DEC baselines); with per-contour times, the time of the contour
+  /// with the most rows (contour_t has each contour's).
+  double t = 0.0;
+  double length_scale = 0.0;  ///< l behind t (0 when t was given)
   double cut = 0.0;  ///< kernel cut distance k sqrt(t) (0 for the DEC baselines)
+  /// Heat time of each contour: all equal to t unless the times are per contour
+  /// (HeatLaplacianOptions::per_contour_time); empty for the DEC baselines.
+  std::vector<double> contour_t;
 
   Eigen::Index rows() const { return L.rows(); }
   /// Contour and position within it of a row.
@@ -101,6 +112,11 @@ ContourOperator heat_laplacian(const ContourSet& contours, const Measures& measu
 double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures);
 /// The same with the measured length scale given directly (0: none), for any dimension.
 double heat_time(double h, const HeatLaplacianOptions& options, double measured_length_scale);
+/// The heat time of each of `contours` contours: heat_time() for all, or per contour from
+/// measures.contour_length_scales when options.per_contour_time applies (geodesic distance, t and
+/// length_scale not given, the measures carrying one l_c per contour).
+std::vector<double> contour_heat_times(double h, const HeatLaplacianOptions& options, const Measures& measures,
+                                       std::size_t contours);
 
 /// Which edge lengths the DEC baseline uses.
 enum class DecLengths { Naive, Corrected };

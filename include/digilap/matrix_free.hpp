@@ -31,7 +31,10 @@ public:
 
   Eigen::Index rows() const { return mass_.size(); }
   Eigen::Index cols() const { return mass_.size(); }
+  /// Heat time: the contour with the most rows' when each contour has its own (contour_t()).
   double t() const { return t_; }
+  /// Heat time of each contour (HeatLaplacianOptions::per_contour_time), as the explicit operator's.
+  std::vector<double> contour_t() const;
   /// The length scale l behind the default t (0 when t was given).
   double length_scale() const { return length_scale_; }
   double cut() const { return cut_; }
@@ -79,6 +82,8 @@ private:
   struct Contour {
     Eigen::Index offset = 0, n = 0;
     double P = 0;
+    // Its heat time and what follows from it (contours may have their own: contour_t()).
+    double t = 0, cut = 0, delta = 0, box = 0, scale = 0;
     bool direct = false;  // window >= half the contour, or tiny: direct sums
     Eigen::Index boxes = 0;
     std::vector<Eigen::Index> box_start;  // first element of each box (size boxes + 1)
@@ -96,7 +101,7 @@ private:
 
   std::vector<Contour> contours_;
   std::vector<Eigen::Index> offset_;
-  Eigen::VectorXd mass_, s_, diagonal_, transform_of_mass_;
+  Eigen::VectorXd mass_, s_, diagonal_, transform_of_mass_, row_scale_;
   Eigen::MatrixX2d positions_;
   std::vector<Eigen::Index> back_, fwd_;  // the geodesic window of each row
   double t_ = 0, length_scale_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;

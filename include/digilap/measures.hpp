@@ -31,6 +31,8 @@ struct Measures {
   /// default heat time is c_t h^(2/3) l^(4/3).
   double length_scale = 0;
   double normal_radius = 0;
+  /// l_c of each contour (LinelNormals::contour_length_scales; empty when l was given).
+  std::vector<double> contour_length_scales;
   /// Total estimated length of all contours.
   double total_length() const;
 };

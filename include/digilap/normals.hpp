@@ -18,6 +18,10 @@ struct LinelNormals : std::vector<Eigen::MatrixX2d> {
   using std::vector<Eigen::MatrixX2d>::vector;
   double length_scale = 0;  ///< l (0: unknown, then the operator needs an explicit t or l)
   double radius = 0;        ///< the II disk radius R used (0 for exact normals)
+  /// l_c of each contour when l was measured (LengthScale::per_contour, l for a contour too
+  /// short to be sampled); empty when l was given. The geodesic operator's default heat time is
+  /// per contour: contours that do not interact need not share one.
+  std::vector<double> contour_length_scales;
 };
 
 struct IINormalOptions {

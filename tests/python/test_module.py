@@ -232,6 +232,20 @@ def test_downstream_functions_and_options():
     assert len(per_contour) == 1 and np.allclose(per_contour[0].eigenvalues, digilap.smallest_eigenpairs(plain, 5).eigenvalues)
 
 
+def test_each_contour_has_its_own_heat_time():
+    """Geodesic contours do not interact: each gets t from its own length scale (issue 14)."""
+    i, j = np.meshgrid(np.arange(160), np.arange(120))
+    mask = (np.hypot(i - 60.3, j - 60.2) < 45) | (np.hypot(i - 140.2, j - 20.4) < 7)
+    image = digilap.from_mask(mask)
+    contours = digilap.track_contours(image)
+    mu = digilap.measures(contours, digilap.ii_normals(image, contours))
+    own = digilap.heat_laplacian(contours, mu)
+    shared = digilap.heat_laplacian(contours, mu, per_contour_time=False)
+    assert len(own.contour_t) == 2 and min(own.contour_t) < 0.5 * max(own.contour_t)
+    assert shared.contour_t[0] == shared.contour_t[1] and own.t == max(own.contour_t)
+    assert digilap.MatrixFreeLaplacian(contours, mu).contour_t == own.contour_t
+
+
 def test_volumes_in_python(tmp_path):
     """NIfTI and .npy volumes through the same reader as the apps, with its refusals."""
     from digilap import surface
