@@ -146,6 +146,8 @@ const std::vector<Case> kCases = {
     {"surface_memory_limit", "spectrum", "--shape sphere --memory-limit 1000", "", false, "above the memory limit"},
     {"surface_operator_npz", "operator", "--shape torus --h 0.1 --format npz --out {dir}/torus", "", true, "torus/surfels.ply"},
     {"surface_convergence", "convergence", "--shape torus --h 0.2 0.15 --out {dir}/cv3", "", true, "| exact | "},
+    {"convergence_image", "convergence", "--image {data}/ten_squares.pbm", "", false, "measures errors against an exact shape"},
+    {"convergence_volume", "convergence", "--volume {data}/ball.nii.gz", "", false, "images and volumes have none"},
     {"surface_convergence_function", "convergence", "--shape sphere --function cos1", "", false, "test functions are x2 and xy"},
     {"volume_labels_largest", "operator", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --largest --kR 0.5 --length-scale 1 --out {dir}/lab", "", true, "surfels.ply"},
     {"surface_heat", "heat", "--shape sphere --h 0.15 --tau 0.2 --steps 10 --snapshots 3 --out {dir}/heat3", "", true, "heat.ply"},

@@ -146,9 +146,17 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"closest", "radial"}))
       ->capture_default_str();
   app::add_output_options(app, out_dir, quiet);
+  // Images and volumes have no exact curve or surface to measure errors against: refused with
+  // that reason rather than CLI11's "argument not expected".
+  std::string image, volume;
+  app.add_option("--image", image)->group("");
+  app.add_option("--volume", volume)->group("");
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
+    if (!image.empty() || !volume.empty())
+      throw Error("digilap-convergence measures errors against an exact shape (--shape); images and volumes have "
+                  "none: use digilap-spectrum, digilap-heat or digilap-operator with them");
     if (names_a_surface(shape_name)) {
       if (h_option->count() == 0) steps = {0.1, 0.07, 0.05, 0.035, 0.025};
       std::sort(steps.begin(), steps.end(), std::greater<>());
