@@ -3,6 +3,8 @@
 #include "digilap/digitization.hpp"
 #include "digilap/error.hpp"
 
+#include "error_of.hpp"
+
 #include <gtest/gtest.h>
 
 #include <climits>
@@ -97,17 +99,6 @@ TEST(Digitization, BadStepIsRefused) {
   EXPECT_THROW(digitize(c, 1e-12), Error);  // pixel indices beyond 32 bits
   EXPECT_EQ(digitize(c, 5.0).pixel_count(), 1);  // only the centre pixel (0, 0)
 }
-
-namespace {
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
-}
-}  // namespace
 
 // Issue 15, item 3: indices at the edges of the int32 range gave a segfault, lost pixels, a
 // "hole" of area -8589934590 and bad_alloc. They are refused with the range; the range's own

@@ -8,6 +8,7 @@
 #include "digilap/surface/ply.hpp"
 #include "digilap/surface/smoothing.hpp"
 #include "digilap/surface/volume.hpp"
+#include "error_of.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -376,14 +377,6 @@ std::string write(const std::string& name, const std::string& bytes) {
   const std::string path = ::testing::TempDir() + "/" + name;
   std::ofstream(path, std::ios::binary) << bytes;
   return path;
-}
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 }  // namespace
 
