@@ -60,17 +60,10 @@ struct Crossing {
 DigitalSet::DigitalSet(double h) : h_(h) { check_step(h); }
 
 bool DigitalSet::contains(std::int32_t i, std::int32_t j) const {
-  const Run* b = row_runs_begin(j);
-  const Run* e = row_runs_end(j);
-  const Run* it = std::upper_bound(b, e, i, [](std::int32_t v, const Run& r) { return v < r.begin; });
-  return it != b && i < (it - 1)->end;
+  return detail::in_runs(row_runs_begin(j), row_runs_end(j), i);
 }
 
-std::int64_t DigitalSet::pixel_count() const {
-  std::int64_t n = 0;
-  for (const Run& r : runs_) n += r.end - r.begin;
-  return n;
-}
+std::int64_t DigitalSet::pixel_count() const { return detail::run_total(runs_); }
 
 std::size_t DigitalSet::memory_bytes() const {
   return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);

@@ -4,6 +4,7 @@
 #include "digilap/digitization.hpp"
 
 #include <algorithm>
+#include <cstdint>
 #include <vector>
 
 namespace digilap::detail {
@@ -18,6 +19,19 @@ inline void normalize_runs(std::vector<Run>& runs) {
     else runs[out++] = runs[k];
   }
   runs.resize(out);
+}
+
+/// Whether i lies in one of the sorted, disjoint runs [b, e).
+inline bool in_runs(const Run* b, const Run* e, std::int32_t i) {
+  const Run* it = std::upper_bound(b, e, i, [](std::int32_t v, const Run& r) { return v < r.begin; });
+  return it != b && i < (it - 1)->end;
+}
+
+/// The number of pixels or voxels the runs hold.
+inline std::int64_t run_total(const std::vector<Run>& runs) {
+  std::int64_t n = 0;
+  for (const Run& r : runs) n += r.end - r.begin;
+  return n;
 }
 
 }  // namespace digilap::detail

@@ -30,17 +30,10 @@ void check_rows(std::int64_t nj, std::int64_t nk) {
 VoxelSet::VoxelSet(double h) : h_(h) { require_positive("voxel set: grid step h", h); }
 
 bool VoxelSet::contains(std::int32_t i, std::int32_t j, std::int32_t k) const {
-  const Run* b = row_begin(j, k);
-  const Run* e = row_end(j, k);
-  const Run* it = std::upper_bound(b, e, i, [](std::int32_t v, const Run& r) { return v < r.begin; });
-  return it != b && i < (it - 1)->end;
+  return detail::in_runs(row_begin(j, k), row_end(j, k), i);
 }
 
-std::int64_t VoxelSet::voxel_count() const {
-  std::int64_t n = 0;
-  for (const Run& r : runs_) n += r.end - r.begin;
-  return n;
-}
+std::int64_t VoxelSet::voxel_count() const { return detail::run_total(runs_); }
 
 std::size_t VoxelSet::memory_bytes() const {
   return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);
