@@ -17,6 +17,7 @@
 #include <numeric>
 #include <sstream>
 #include <tuple>
+#include <type_traits>
 
 namespace digilap {
 
@@ -41,6 +42,7 @@ int hermite_order(double rho, double epsilon) {
 // window ends), times the bound `gaussian` on the factored Gaussian, is below epsilon:
 // gaussian e^x x^q / q! / (1 - x / (q + 1)). Returns kMaxBandOrder + 1 when none is.
 constexpr int kMaxBandOrder = 24;
+constexpr int kLanes = 8;  // sources whose power chains run side by side
 int band_series_order(double x, double gaussian, double epsilon) {
   double term = gaussian * std::exp(x);  // gaussian e^x x^q / q!
   for (int q = 1; q <= kMaxBandOrder; ++q) {
@@ -55,6 +57,26 @@ void hermite_functions(double u, int count, double* h) {
   h[0] = std::exp(-u * u);
   if (count > 1) h[1] = 2 * u * h[0];
   for (int q = 1; q + 1 < count; ++q) h[q + 1] = 2 * u * h[q] - 2 * q * h[q - 1];
+}
+
+// T[q][column(m)] = (-1)^m / m! h_{q+m}(u), q, m < p: the Hermite expansion (moments A_q) of a
+// box at offset u (units of delta) translated to Taylor coefficients B_m = sum_q A_q T[q][m]
+// about another box's centre, since d/du h_n = -h_{n+1}. Columns hold the even m, then the odd
+// ones: boxes at -u and u then share one matrix, as h_n(-u) = (-1)^n h_n(u). Each half is
+// padded with zeros to a multiple of 4 columns (whole vectors, no scalar tails).
+inline int half_columns(int p) { return ((p + 1) / 2 + 3) / 4 * 4; }
+inline int taylor_columns(int p) { return 2 * half_columns(p); }
+inline int taylor_column(int m, int p) { return m % 2 == 0 ? m / 2 : half_columns(p) + m / 2; }
+void translation_matrix(double u, int p, double* T) {
+  const int columns = taylor_columns(p);
+  std::fill_n(T, static_cast<std::size_t>(p) * columns, 0.0);
+  double h[128];
+  hermite_functions(u, 2 * p - 1, h);
+  double factor = 1.0;
+  for (int m = 0; m < p; ++m) {
+    for (int q = 0; q < p; ++q) T[q * columns + taylor_column(m, p)] = factor * h[q + m];
+    factor *= -1.0 / (m + 1);
+  }
 }
 
 // power[q] = first x^q for q < count (count <= the buffer, >= 4 entries), as four interleaved
@@ -103,8 +125,8 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     return std::array<double, 4>{cut, delta, std::min(0.5 * delta, cut / 3), 1.0 / (t * std::sqrt(4 * kPi * t))};
   };
   std::tie(cut_, delta_, box_, scale_) = std::tuple_cat(geometry(t_));
-  // The Hermite (whole boxes), the Taylor (their sum at a target) and the band (window ends)
-  // truncations each get a tenth of the budget.
+  // The Hermite (whole boxes) and the Taylor (their sum at a target) truncations get a tenth
+  // of the error budget each, the bands (window ends, the larger share of the work) half.
   order_ = hermite_order(0.5 * box_ / delta_, 0.1 * epsilon);
 
   mass_ = e.mu;
@@ -127,14 +149,14 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     planned_rows += n;
     planned_boxes += static_cast<Eigen::Index>(boxes);
   }
-  // Hermite values at the box offsets a core can have: within the cut, and within a contour.
-  const int terms = 2 * order_ - 1;
+  // Translations for the box offsets a core can have: within the cut, and within a contour.
   reach_ = std::min<Eigen::Index>(static_cast<Eigen::Index>(std::min(std::ceil(cut_ / box_), 1e15)) + 2, most_boxes);
   // Estimate before allocating: per row the windows, element arrays and band factors (about
-  // 17 doubles, and 4 band entries of 2 doubles for a planned row), per box its plan and moments.
-  const double bytes = 8.0 * (18.0 * static_cast<double>(n_all) + 8.0 * static_cast<double>(planned_rows)) +
+  // 17 doubles; for a planned row 4 band entries of 2 doubles and at most one correction of
+  // 3), per box its plan and moments.
+  const double bytes = 8.0 * (18.0 * static_cast<double>(n_all) + 11.0 * static_cast<double>(planned_rows)) +
                        static_cast<double>(planned_boxes) * (sizeof(TargetBox) + 16.0 + 8.0 * order_) +
-                       8.0 * static_cast<double>(2 * reach_ + 1) * terms;
+                       8.0 * static_cast<double>(2 * reach_ + 1) * order_ * taylor_columns(order_);
   if (bytes > options.memory_limit_bytes) {
     std::ostringstream msg;
     msg << "MatrixFreeLaplacian: the operator would take about " << bytes / 1e9 << " GB (" << n_all
@@ -142,11 +164,11 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
         << " GB; raise memory_limit_bytes or use a coarser h";
     throw Error(msg.str());
   }
-  hermite_at_offset_.resize(static_cast<std::size_t>(2 * reach_ + 1) * terms);
+  // Translation matrices T_d[q][m] = (-1)^m / m! h_{q+m}(d box / delta), |d| <= reach_.
+  translation_.resize(static_cast<std::size_t>(2 * reach_ + 1) * order_ * taylor_columns(order_));
   for (Eigen::Index d = -reach_; d <= reach_; ++d)
-    hermite_functions(static_cast<double>(d) * box_ / delta_, terms,
-                      &hermite_at_offset_[static_cast<std::size_t>(d + reach_) * terms]);
-
+    translation_matrix(static_cast<double>(d) * box_ / delta_, order_,
+                       &translation_[static_cast<std::size_t>(d + reach_) * order_ * taylor_columns(order_)]);
   back_.assign(static_cast<std::size_t>(n_all), 0);
   fwd_.assign(static_cast<std::size_t>(n_all), 0);
   alpha_ = tau_forward_ = tau_backward_ = Eigen::VectorXd::Zero(n_all);
@@ -193,11 +215,11 @@ double MatrixFreeLaplacian::direct_share() const {
 }
 
 // The window of target i is the sources lo(i) = i - back_i .. hi(i) = i + fwd_i (unwrapped).
-// For the targets i0..i1 of a box, the whole source boxes between the box holding max lo(i)
-// and the box holding min hi(i) are seen by all of them (the core); the rest of each window
-// lies in two bands: forward [first of the box holding min hi, hi(i)] and backward
-// [lo(i), last of the box holding max lo]. A band spans at most about two boxes, at distance
-// ~cut from the targets. With E its centre, c the target box's centre, alpha = (s_i - c) / delta,
+// For the targets i0..i1 of a box, whole source boxes (the core) are seen by all of them, up
+// to the sources a window does not reach, subtracted term by term; the rest of each window
+// lies in two bands: forward [first of a box B, hi(i)] and backward [lo(i), last of a box B'],
+// B and B' about cut from the targets, plus the source or two a window reaches past them,
+// added term by term (see the choice of B below). With E a band's centre, c the target box's centre, alpha = (s_i - c) / delta,
 // beta = (s_j - E) / delta and D = (E - c) / delta:
 //   exp(-(s_j - s_i)^2 / delta^2) = exp(-(D + beta)^2) exp(2 D alpha - alpha^2) exp(2 alpha beta),
 // and exp(2 alpha beta) = sum_n (2 alpha beta)^n / n! converges fast (|2 alpha beta| <= 1/4).
@@ -241,12 +263,36 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     }
     tb.direct = true;  // unless the split below is sound
     if (core_lo > core_hi || lo_min < -n || hi_max >= 2 * n) continue;
-    const Eigen::Index forward_lo = box_first(core_hi), backward_hi = box_last(core_lo);
-    if (backward_hi >= forward_lo) continue;  // the two ends overlap: no core in between
-    tb.core_lo = backward_hi + 1;
-    tb.core_hi = forward_lo - 1;
-    tb.forward = {forward_lo, hi_max};
-    tb.backward = {lo_min, backward_hi};
+    if (box_last(core_lo) >= box_first(core_hi)) continue;  // the two ends overlap: no core in between
+    // Bands one box long. The ends of the windows of a box's targets mostly lie in one box,
+    // but the nearest or farthest often straddle into the next box by a source or two; a band
+    // over both boxes would put each source in three bands instead of two. So the band is the
+    // box holding the middle target's end, clipped to the ends; the few sources a window
+    // reaches beyond it are added, and the few of the core's end box a window does not reach
+    // are subtracted, term by term (weights fixed here). When that would take more than one
+    // term per target, or the core would vanish, the band spans the ends as they are.
+    const Eigen::Index count = i1 - i0 + 1, middle = ct.offset + i0 + count / 2;
+    const Eigen::Index forward_box_lo = box_first(i0 + count / 2 + fwd_[middle]);
+    const Eigen::Index forward_box_hi = box_last(forward_box_lo);
+    const Eigen::Index backward_box_hi = box_last(i0 + count / 2 - back_[middle]);
+    const Eigen::Index backward_box_lo = box_first(backward_box_hi);
+    Eigen::Index corrections = 0;
+    bool one_box = backward_box_hi < forward_box_lo;
+    for (Eigen::Index i = i0; i <= i1 && one_box; ++i) {
+      const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+      corrections += std::abs(std::clamp(hi, forward_box_lo - 1, forward_box_hi) - hi) +
+                     std::abs(std::clamp(lo, backward_box_lo, backward_box_hi + 1) - lo);
+      one_box = hi >= backward_box_hi && lo <= forward_box_lo;  // what is subtracted lies in the core
+    }
+    if (one_box && corrections <= count) {
+      tb.forward = {forward_box_lo, std::min(hi_max, forward_box_hi)};
+      tb.backward = {std::max(lo_min, backward_box_lo), backward_box_hi};
+    } else {
+      tb.forward = {box_first(core_hi), hi_max};
+      tb.backward = {lo_min, box_last(core_lo)};
+    }
+    tb.core_lo = tb.backward.hi + 1;
+    tb.core_hi = tb.forward.lo - 1;
     // Band centres, half widths and offsets from the box (in units of delta).
     double centre_of[2], half[2], offset[2];
     const Band* bands[2] = {&tb.forward, &tb.backward};
@@ -261,9 +307,10 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     // G_ij <= exp(-(|D| - |beta| - |alpha|)^2) when that distance is positive.
     const double x = 2 * alpha_max * std::max(half[0], half[1]);
     const double distance = std::max(0.0, std::min(std::abs(offset[0]) - half[0], std::abs(offset[1]) - half[1]) - alpha_max);
-    const int order = band_series_order(x, std::exp(-distance * distance), 0.1 * epsilon);
+    const int order = band_series_order(x, std::exp(-distance * distance), 0.5 * epsilon);
     if (order > kMaxBandOrder) continue;
     tb.direct = false;
+    tb.band_order = order;
     band_order_ = std::max(band_order_, order);
     for (int b = 0; b < 2; ++b) {
       Band& band = b == 0 ? tb.forward : tb.backward;
@@ -275,6 +322,19 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
         band_weight_.push_back(std::exp(-d * d));
       }
     }
+    tb.corrections_begin = correction_.size();
+    for (Eigen::Index i = i0; i <= i1; ++i) {
+      const Eigen::Index lo = i - back_[ct.offset + i], hi = i + fwd_[ct.offset + i];
+      auto correct = [&](Eigen::Index u, double sign) {
+        const double d = (position(u) - s[i]) / delta;
+        correction_.push_back({i - i0, u - wraps(u) * n, sign * std::exp(-d * d)});
+      };
+      for (Eigen::Index u = hi + 1; u < tb.forward.lo; ++u) correct(u, -1.0);  // in the core, beyond the window
+      for (Eigen::Index u = tb.backward.hi + 1; u < lo; ++u) correct(u, -1.0);
+      for (Eigen::Index u = tb.forward.hi + 1; u <= hi; ++u) correct(u, 1.0);   // in the window, beyond the band
+      for (Eigen::Index u = lo; u < tb.backward.lo; ++u) correct(u, 1.0);
+    }
+    tb.corrections_end = correction_.size();
     for (Eigen::Index i = i0; i <= i1; ++i) {
       const double a = (s[i] - centre) / delta;
       alpha_[ct.offset + i] = a;
@@ -305,7 +365,7 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
 }
 
 void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc) const {
-  const int p = order_, q_band = band_order_, terms = 2 * p - 1;
+  const int p = order_;
   double inverse_factorial[64];
   inverse_factorial[0] = 1;
   for (int q = 1; q < 64; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
@@ -318,18 +378,33 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
     }
     const double* s = s_.data() + ct.offset;
     const Eigen::Index n = ct.n;
-    // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta.
+    // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta:
+    // sources in lanes of kLanes, so that the power chains run side by side (vectorized);
+    // the lanes are summed in a fixed order (the same result for any number of threads).
     box_moments_.resize(std::max(box_moments_.size(), static_cast<std::size_t>(ct.boxes) * p));
     double* H = box_moments_.data();
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < ct.boxes; ++k) {
       const double centre = (k + 0.5) * box;
-      double acc[64] = {0}, power[64];
-      for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; ++j) {
-        scaled_powers(fc[j], (s[j] - centre) * inv_delta, p, power);  // f_j v^q
-        for (int q = 0; q < p; ++q) acc[q] += power[q];
+      double acc[64][kLanes] = {};
+      for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; j += kLanes) {
+        const Eigen::Index lanes = std::min<Eigen::Index>(kLanes, ct.box_start[k + 1] - j);
+        double power[kLanes], v[kLanes];
+        for (int l = 0; l < kLanes; ++l) {
+          power[l] = l < lanes ? fc[j + l] : 0.0;
+          v[l] = l < lanes ? (s[j + l] - centre) * inv_delta : 0.0;
+        }
+        for (int q = 0; q < p; ++q)
+          for (int l = 0; l < kLanes; ++l) {
+            acc[q][l] += power[l];
+            power[l] *= v[l];
+          }
       }
-      for (int q = 0; q < p; ++q) H[k * p + q] = acc[q] * inverse_factorial[q];
+      for (int q = 0; q < p; ++q) {
+        double sum = 0;
+        for (int l = 0; l < kLanes; ++l) sum += acc[q][l];
+        H[k * p + q] = sum * inverse_factorial[q];
+      }
     }
     // 2. Targets box by box.
     const double P = ct.P;
@@ -345,14 +420,22 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
     };
 #pragma omp parallel
     {
-      double h_wrapped[128], local[64];
+      double local[64];
+      std::vector<double> wrapped_storage(static_cast<std::size_t>(p) * taylor_columns(p));
+      double* t_wrapped = wrapped_storage.data();
       std::vector<double> forward_rows, backward_rows;
-      // Moments sum w_j (2 beta_j)^n / n!, n < q_band, of the sources of a band, accumulated in
-      // the band's order (forward: prefix sums) or against it (backward: suffix sums): row r
-      // holds the sum over the band's first (last) r + 1 sources.
-      auto band_moments = [&](const Band& band, bool prefix, std::vector<double>& rows) {
+      // Moments sum w_j (2 beta_j)^n / n!, n < q_band (the box's band order), of the sources of
+      // a band, accumulated in the band's order (forward: prefix sums, row r + 1 holds the sum
+      // over its first r + 1 sources, row 0 none) or against it (backward: suffix sums, row r
+      // holds the sum over its sources from r on, row count none). `order` is the band order
+      // as a compile-time constant (fixed-length loops; the hot spot of the product), or 0
+      // for q_band at run time.
+      auto band_moments = [&](const Band& band, bool prefix, int q_band, auto order, std::vector<double>& rows) {
+        constexpr int kOrder = decltype(order)::value;
+        if constexpr (kOrder > 0) q_band = kOrder;
         const Eigen::Index count = band.hi - band.lo + 1;
-        rows.resize(static_cast<std::size_t>(count) * q_band);
+        rows.resize(static_cast<std::size_t>(count + 1) * q_band);
+        std::fill_n(rows.data() + (prefix ? 0 : count * q_band), q_band, 0.0);
         const double* beta = band_beta_.data() + band.data;
         const double* weight = band_weight_.data() + band.data;
         double acc[kMaxBandOrder + 1] = {0};
@@ -362,11 +445,40 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
           const Eigen::Index j = u < 0 ? u + n : (u >= n ? u - n : u);
           double power[kMaxBandOrder + 4];  // w (2 beta)^q, then 1 / q! from a table
           scaled_powers(fc[j] * weight[v], 2 * beta[v], q_band, power);
-          double* row = rows.data() + static_cast<std::size_t>(v) * q_band;
+          double* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * q_band;
           for (int q = 0; q < q_band; ++q) {
             acc[q] += power[q] * inverse_factorial[q];
             row[q] = acc[q];
           }
+        }
+      };
+      // Both bands of target box kt at every target: tau_i sum_q alpha_i^q M_q(i).
+      auto add_bands = [&](Eigen::Index kt, auto order) {
+        constexpr int kOrder = decltype(order)::value;
+        const TargetBox& tb = ct.plan[kt];
+        const int q_band = kOrder > 0 ? kOrder : tb.band_order;
+        band_moments(tb.forward, true, q_band, order, forward_rows);
+        band_moments(tb.backward, false, q_band, order, backward_rows);
+        const Eigen::Index i0 = ct.box_start[kt], count = ct.box_start[kt + 1] - i0;
+        const Eigen::Index forward_count = tb.forward.hi - tb.forward.lo + 1, backward_count = tb.backward.hi - tb.backward.lo + 1;
+        const double* alpha = alpha_.data() + ct.offset + i0;
+        const double* tau_f = tau_forward_.data() + ct.offset + i0;
+        const double* tau_b = tau_backward_.data() + ct.offset + i0;
+        double* out_box = oc + i0;
+        for (Eigen::Index i = 0; i < count; ++i) {
+          const Eigen::Index row = ct.offset + i0 + i;
+          // Row 0 (forward) and the last row (backward) are zero: for the windows that end
+          // before the band begins (or begin after it ends).
+          const Eigen::Index forward_row = std::clamp<Eigen::Index>(i0 + i + fwd_[row] - tb.forward.lo + 1, 0, forward_count);
+          const Eigen::Index backward_row = std::clamp<Eigen::Index>(i0 + i - back_[row] - tb.backward.lo, 0, backward_count);
+          const double* mf = forward_rows.data() + static_cast<std::size_t>(forward_row) * q_band;
+          const double* mb = backward_rows.data() + static_cast<std::size_t>(backward_row) * q_band;
+          double sf = 0, sb = 0;
+          for (int q = q_band - 1; q >= 0; --q) {
+            sf = sf * alpha[i] + mf[q];
+            sb = sb * alpha[i] + mb[q];
+          }
+          out_box[i] += tau_f[i] * sf + tau_b[i] * sb;
         }
       };
 #pragma omp for schedule(dynamic, 4)
@@ -381,50 +493,76 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         const double centre = (kt + 0.5) * box;
         // The core's whole boxes: Hermite to Taylor translation about the box centre,
         // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
-        for (int q = 0; q < p; ++q) local[q] = 0;
-        for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
-          const Eigen::Index d = kt - k;
-          const double* h = h_wrapped;
-          if (shift == 0.0 && d >= -reach_ && d <= reach_)
-            h = hermite_at_offset_.data() + static_cast<std::size_t>(d + reach_) * terms;
-          else
-            hermite_functions((centre - ((k + 0.5) * box + shift)) * inv_delta, terms, h_wrapped);
-          const double* moments = H + k * p;
-          double factor = 1.0;
-          for (int m = 0; m < p; ++m) {
-            double sum = 0;
-            for (int q = 0; q < p; ++q) sum += moments[q] * h[q + m];
-            local[m] += factor * sum;
-            factor *= -1.0 / (m + 1);
+        const int columns = taylor_columns(p), half = half_columns(p);
+        for (int m = 0; m < columns; ++m) local[m] = 0;  // in taylor_column order
+        auto matrix = [&](Eigen::Index d, double offset) {  // T for a source box d boxes behind
+          if (d >= -reach_ && d <= reach_) return translation_.data() + static_cast<std::size_t>(d + reach_) * p * columns;
+          translation_matrix(offset * inv_delta, p, t_wrapped);
+          return static_cast<const double*>(t_wrapped);
+        };
+        auto add_box = [&](const double* moments, const double* T) {  // local += A T, a row of T at a time
+          for (int q = 0; q < p; ++q) {
+            const double a = moments[q];
+            for (int m = 0; m < columns; ++m) local[m] += a * T[q * columns + m];
           }
-        });
+        };
+        if (tb.core_lo >= 0 && tb.core_hi < n) {
+          // Boxes kt - d and kt + d in one product: with E_q = A_q(kt - d) + (-1)^q A_q(kt + d)
+          // and O_q = A_q(kt - d) - (-1)^q A_q(kt + d), B_m = sum_q (E_q or O_q, m even or odd) T_d[q][m].
+          const Eigen::Index first = ct.box_of[tb.core_lo], last = ct.box_of[tb.core_hi];
+          for (Eigen::Index k = first; k <= last; ++k) {
+            const Eigen::Index d = kt - k, partner = kt + d;
+            if (d < 0 && 2 * kt - k >= first && -d <= reach_) continue;  // taken with its partner
+            if (d <= 0 || partner > last || d > reach_) {
+              add_box(H + k * p, matrix(d, static_cast<double>(d) * box));
+              continue;
+            }
+            const double* T = matrix(d, static_cast<double>(d) * box);
+            const double *left = H + k * p, *right = H + partner * p;
+            double sum[64], difference[64];
+            for (int q = 0; q < p; ++q) {
+              const double signed_right = q % 2 == 0 ? right[q] : -right[q];
+              sum[q] = left[q] + signed_right;
+              difference[q] = left[q] - signed_right;
+            }
+            for (int q = 0; q < p; ++q) {
+              const double e = sum[q], o = difference[q];
+              for (int m = 0; m < half; ++m) local[m] += e * T[q * columns + m];
+              for (int m = half; m < columns; ++m) local[m] += o * T[q * columns + m];
+            }
+          }
+        } else {  // the core wraps around the contour's start: box by box
+          for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
+            const Eigen::Index d = kt - k;
+            add_box(H + k * p, shift == 0.0 ? matrix(d, static_cast<double>(d) * box)
+                                            : matrix(reach_ + 1, centre - ((k + 0.5) * box + shift)));
+          });
+        }
         // The core's Taylor expansion at every target of the box: Horner steps in lockstep
         // across targets (one dependent chain per target otherwise).
         const Eigen::Index count = i1 - i0 + 1;
         const double* alpha = alpha_.data() + ct.offset + i0;
         double* out_box = oc + i0;
-        for (Eigen::Index i = 0; i < count; ++i) out_box[i] = 0;
-        for (int m = p - 1; m >= 0; --m) {
-          const double coefficient = local[m];
-#pragma omp simd
-          for (Eigen::Index i = 0; i < count; ++i) out_box[i] = out_box[i] * alpha[i] + coefficient;
+        for (Eigen::Index i = 0; i < count; i += kLanes) {  // kLanes targets held in registers
+          double sum[kLanes] = {}, a[kLanes];
+          for (int l = 0; l < kLanes; ++l) a[l] = i + l < count ? alpha[i + l] : 0.0;
+          for (int m = p - 1; m >= 0; --m) {
+            const double coefficient = local[taylor_column(m, p)];
+            for (int l = 0; l < kLanes; ++l) sum[l] = sum[l] * a[l] + coefficient;
+          }
+          for (int l = 0; l < kLanes && i + l < count; ++l) out_box[i + l] = sum[l];
         }
         // The two bands: each target reads the moments of its part of the band.
-        band_moments(tb.forward, true, forward_rows);
-        band_moments(tb.backward, false, backward_rows);
-        const double* tau_f = tau_forward_.data() + ct.offset + i0;
-        const double* tau_b = tau_backward_.data() + ct.offset + i0;
-        for (Eigen::Index i = 0; i < count; ++i) {
-          const Eigen::Index row = ct.offset + i0 + i;
-          const double* mf = forward_rows.data() + static_cast<std::size_t>(i0 + i + fwd_[row] - tb.forward.lo) * q_band;
-          const double* mb = backward_rows.data() + static_cast<std::size_t>(i0 + i - back_[row] - tb.backward.lo) * q_band;
-          double sf = 0, sb = 0;
-          for (int q = q_band - 1; q >= 0; --q) {
-            sf = sf * alpha[i] + mf[q];
-            sb = sb * alpha[i] + mb[q];
-          }
-          out_box[i] += tau_f[i] * sf + tau_b[i] * sb;
+        switch (tb.band_order) {
+          case 5: add_bands(kt, std::integral_constant<int, 5>{}); break;
+          case 6: add_bands(kt, std::integral_constant<int, 6>{}); break;
+          case 7: add_bands(kt, std::integral_constant<int, 7>{}); break;
+          case 8: add_bands(kt, std::integral_constant<int, 8>{}); break;
+          default: add_bands(kt, std::integral_constant<int, 0>{});
         }
+        // The few sources a window reaches beyond its bands, or does not reach in the core.
+        for (std::size_t c = tb.corrections_begin; c < tb.corrections_end; ++c)
+          out_box[correction_[c].target] += correction_[c].weight * fc[correction_[c].source];
       }
     }
   }

@@ -7,7 +7,8 @@
 // convolution splits each window into whole boxes of width <= sqrt(t), which every target of
 // a box sees (Hermite expansions translated to a Taylor expansion about the box), and its two
 // ends, where the windows of the box's targets differ (a series in the product of the target's
-// and the source's offsets, after the Gaussian is factored about the end's centre: ~8 terms).
+// and the source's offsets, after the Gaussian is factored about the end's centre: ~6 terms,
+// over one box; the source or two a window reaches past that box are added term by term).
 // Orders are the smallest that meet the error bound epsilon (default 1e-10, relative to the
 // operator's scale max|L_ii| max|g|). Contours whose window covers half of them are summed
 // directly.
@@ -40,7 +41,7 @@ public:
   double cut() const { return cut_; }
   /// Hermite expansion order used for whole boxes.
   int order() const { return order_; }
-  /// Series order used at the window ends (0 when every contour is summed directly).
+  /// Largest series order used at the window ends (0 when every contour is summed directly).
   int band_order() const { return band_order_; }
   /// Share of the rows whose window is summed term by term (small contours, degenerate boxes).
   double direct_share() const;
@@ -78,6 +79,15 @@ private:
     bool direct = false;                     // summed term by term (degenerate geometry)
     Eigen::Index core_lo = 0, core_hi = -1;  // the whole source boxes every target sees
     Band forward, backward;                  // the window ends beyond them
+    int band_order = 0;                      // terms of the bands' series
+    std::size_t corrections_begin = 0, corrections_end = 0;  // its entries in correction_
+  };
+  // A source a target's window reaches beyond its bands (weight > 0), or a source of the core
+  // it does not reach (weight < 0): see plan_contour.
+  struct Correction {
+    Eigen::Index target;  // offset in its box
+    Eigen::Index source;  // element of the contour
+    double weight;        // +- exp(-(S_source - S_target)^2 / delta^2)
   };
   struct Contour {
     Eigen::Index offset = 0, n = 0;
@@ -107,8 +117,9 @@ private:
   double t_ = 0, length_scale_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
   int order_ = 0, band_order_ = 0;
   Eigen::Index reach_ = 0;
-  std::vector<double> hermite_at_offset_;  // h_n(d box / delta), |d| <= reach_, n < 2 order_ - 1
+  std::vector<double> translation_;  // Hermite to Taylor matrices T_d, |d| <= reach_ (translation_matrix)
   std::vector<double> band_beta_, band_weight_;
+  std::vector<Correction> correction_;
   Eigen::VectorXd alpha_, tau_forward_, tau_backward_;
   // Scratch reused by every product: box moments (boxes x order), mu x and its transform.
   // Products on one operator are therefore not thread-safe (each runs in parallel inside).
