@@ -293,6 +293,10 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     }
     tb.core_lo = tb.backward.hi + 1;
     tb.core_hi = tb.forward.lo - 1;
+    if (tb.core_lo >= 0 && tb.core_hi < n && tb.core_lo <= tb.core_hi) {
+      tb.core_first_box = ct.box_of[tb.core_lo];
+      tb.core_last_box = ct.box_of[tb.core_hi];
+    }
     // Band centres, half widths and offsets from the box (in units of delta).
     double centre_of[2], half[2], offset[2];
     const Band* bands[2] = {&tb.forward, &tb.backward};
@@ -360,11 +364,19 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
   }
 }
 
-void MatrixFreeLaplacian::gauss_transform(const double* f, double* out) const {
-  for (const Contour& ct : contours_) contour_transform(ct, f + ct.offset, out + ct.offset);
+void MatrixFreeLaplacian::gauss_transform(const double* f, double* out, const double* x, double* y) const {
+  for (const Contour& ct : contours_)
+    contour_transform(ct, f + ct.offset, out + ct.offset, x ? x + ct.offset : nullptr, y ? y + ct.offset : nullptr);
 }
 
-void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc) const {
+void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc, const double* xc,
+                                            double* yc) const {
+  // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
+  const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
+  auto finish = [&](Eigen::Index i0, Eigen::Index i1) {
+    if (yc)
+      for (Eigen::Index i = i0; i <= i1; ++i) yc[i] = ct.scale * (oc[i] - xc[i] * transform_of_mass[i]);
+  };
   const int p = order_;
   double inverse_factorial[64];
   inverse_factorial[0] = 1;
@@ -373,7 +385,10 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
   {
     if (ct.direct) {
 #pragma omp parallel for schedule(dynamic, 64)
-      for (Eigen::Index i = 0; i < ct.n; ++i) direct_sums(ct, i, i, fc, oc);
+      for (Eigen::Index i = 0; i < ct.n; ++i) {
+        direct_sums(ct, i, i, fc, oc);
+        finish(i, i);
+      }
       return;
     }
     const double* s = s_.data() + ct.offset;
@@ -488,6 +503,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         const TargetBox& tb = ct.plan[kt];
         if (tb.direct) {
           direct_sums(ct, i0, i1, fc, oc);
+          finish(i0, i1);
           continue;
         }
         const double centre = (kt + 0.5) * box;
@@ -509,7 +525,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         if (tb.core_lo >= 0 && tb.core_hi < n) {
           // Boxes kt - d and kt + d in one product: with E_q = A_q(kt - d) + (-1)^q A_q(kt + d)
           // and O_q = A_q(kt - d) - (-1)^q A_q(kt + d), B_m = sum_q (E_q or O_q, m even or odd) T_d[q][m].
-          const Eigen::Index first = ct.box_of[tb.core_lo], last = ct.box_of[tb.core_hi];
+          const Eigen::Index first = tb.core_first_box, last = tb.core_last_box;
           for (Eigen::Index k = first; k <= last; ++k) {
             const Eigen::Index d = kt - k, partner = kt + d;
             if (d < 0 && 2 * kt - k >= first && -d <= reach_) continue;  // taken with its partner
@@ -543,11 +559,13 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         const Eigen::Index count = i1 - i0 + 1;
         const double* alpha = alpha_.data() + ct.offset + i0;
         double* out_box = oc + i0;
+        double coefficient_of[64];  // B_m in the order of m
+        for (int m = 0; m < p; ++m) coefficient_of[m] = local[taylor_column(m, p)];
         for (Eigen::Index i = 0; i < count; i += kLanes) {  // kLanes targets held in registers
           double sum[kLanes] = {}, a[kLanes];
           for (int l = 0; l < kLanes; ++l) a[l] = i + l < count ? alpha[i + l] : 0.0;
           for (int m = p - 1; m >= 0; --m) {
-            const double coefficient = local[taylor_column(m, p)];
+            const double coefficient = coefficient_of[m];
             for (int l = 0; l < kLanes; ++l) sum[l] = sum[l] * a[l] + coefficient;
           }
           for (int l = 0; l < kLanes && i + l < count; ++l) out_box[i + l] = sum[l];
@@ -563,6 +581,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         // The few sources a window reaches beyond its bands, or does not reach in the core.
         for (std::size_t c = tb.corrections_begin; c < tb.corrections_end; ++c)
           out_box[correction_[c].target] += correction_[c].weight * fc[correction_[c].source];
+        finish(i0, i1);
       }
     }
   }
@@ -577,10 +596,7 @@ void MatrixFreeLaplacian::apply(const double* x, double* y) const {
   double* g = transformed_.data();
 #pragma omp parallel for schedule(static)
   for (Eigen::Index i = 0; i < n; ++i) f[i] = mass_[i] * x[i];
-  gauss_transform(f, g);
-  // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index i = 0; i < n; ++i) y[i] = row_scale_[i] * (g[i] - x[i] * transform_of_mass_[i]);
+  gauss_transform(f, g, x, y);
 }
 
 void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
@@ -591,10 +607,9 @@ void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* 
   double* f = weighted_.data();
   double* g = transformed_.data();
   const double* mass = mass_.data() + ct.offset;
-  const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
+#pragma omp parallel for schedule(static)
   for (Eigen::Index i = 0; i < ct.n; ++i) f[i] = mass[i] * x[i];
-  contour_transform(ct, f, g);
-  for (Eigen::Index i = 0; i < ct.n; ++i) y[i] = ct.scale * (g[i] - x[i] * transform_of_mass[i]);
+  contour_transform(ct, f, g, x, y);
 }
 
 Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {

@@ -78,6 +78,7 @@ private:
   struct TargetBox {
     bool direct = false;                     // summed term by term (degenerate geometry)
     Eigen::Index core_lo = 0, core_hi = -1;  // the whole source boxes every target sees
+    Eigen::Index core_first_box = 0, core_last_box = -1;  // their boxes, when the core does not wrap
     Band forward, backward;                  // the window ends beyond them
     int band_order = 0;                      // terms of the bands' series
     std::size_t corrections_begin = 0, corrections_end = 0;  // its entries in correction_
@@ -104,9 +105,11 @@ private:
   // its two bands, with their expansion weights; per target its offset and band factors.
   void plan_contour(Contour& ct, double epsilon);
   // (G * f)_i over the window of each row i (j = i included), into out.
-  void gauss_transform(const double* f, double* out) const;
+  // With x and y given, also y_i = c (out_i - x_i (G * mu)_i), box by box while out is in cache.
+  void gauss_transform(const double* f, double* out, const double* x = nullptr, double* y = nullptr) const;
   // The same for one contour, f and out pointing at its first row.
-  void contour_transform(const Contour& ct, const double* fc, double* oc) const;
+  void contour_transform(const Contour& ct, const double* fc, double* oc, const double* xc = nullptr,
+                         double* yc = nullptr) const;
   void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc, double* oc) const;
 
   std::vector<Contour> contours_;
