@@ -38,6 +38,37 @@ Eigen::MatrixXd gram(const ConstBlock& x, const ConstBlock& y) {
   return sum;
 }
 
+// x^T y when that is symmetric (y = x, or y = C x with C symmetric), from the blocks on and
+// above its diagonal: y's columns fall into blocks ending at `ends`, and the blocks below the
+// diagonal are the transposes of those above. For three equal blocks, 6 of the 9 products.
+Eigen::MatrixXd symmetric_gram(const ConstBlock& x, const ConstBlock& y, const std::vector<Eigen::Index>& ends) {
+  const Eigen::Index chunks = chunk_count(x.rows()), cols = x.cols();
+  std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index k = 0; k < chunks; ++k) {
+    const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
+    partial[k] = Eigen::MatrixXd::Zero(cols, cols);
+    Eigen::Index begin = 0;
+    for (const Eigen::Index end : ends) {
+      if (end > begin)
+        partial[k].block(0, begin, end, end - begin).noalias() =
+            x.middleRows(first, rows).leftCols(end).transpose() * y.middleRows(first, rows).middleCols(begin, end - begin);
+      begin = end;
+    }
+  }
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(cols, cols);
+  for (const Eigen::MatrixXd& p : partial) sum += p;
+  std::vector<int> block_of(static_cast<std::size_t>(cols));
+  for (Eigen::Index c = 0, b = 0; c < cols; ++c) {
+    while (c >= ends[static_cast<std::size_t>(b)]) ++b;
+    block_of[static_cast<std::size_t>(c)] = static_cast<int>(b);
+  }
+  for (Eigen::Index j = 0; j < cols; ++j)
+    for (Eigen::Index i = 0; i < cols; ++i)
+      if (block_of[static_cast<std::size_t>(i)] > block_of[static_cast<std::size_t>(j)]) sum(i, j) = sum(j, i);
+  return sum;
+}
+
 // out = x c (out resized to x.rows() x c.cols(); not aliased with x)
 void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out) {
   out.resize(x.rows(), c.cols());
@@ -100,19 +131,21 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   const Eigen::Index n = start.rows(), b = start.cols();
   // Every N-row block is allocated once, here: at large N a fresh block per iteration cost
   // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each).
-  // The basis [X | W | P] and its image live side by side in s and cs.
-  Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, 0), cp(n, 0);
-  Eigen::MatrixXd next_x(n, b), next_cx(n, b), next_p(n, b), next_cp(n, b);
-  for (Eigen::MatrixXd* m : {&s, &cs, &r, &w, &cw, &next_x, &next_cx, &next_p, &next_cp})
+  // The basis [X | W | P] and its image live side by side in s and cs; once copied there, W,
+  // C W, P and C P are free, and take the next X, C X, P and C P (9 blocks of N x b in all).
+  Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, b), cp(n, b);
+  for (Eigen::MatrixXd* m : {&s, &cs, &r, &w, &cw, &p, &cp})
     advise_huge_pages(m->data(), sizeof(double) * static_cast<std::size_t>(m->size()));
   apply_c(start, cw);
   result.products += static_cast<int>(b);
   RitzPairs ritz = rayleigh_ritz(gram(start, start), gram(start, cw), b);
   Eigen::Index bx = ritz.values.size();
-  combine(start, ritz.coordinates, next_x);
-  combine(cw, ritz.coordinates, next_cx);
-  s.leftCols(bx) = next_x;
-  cs.leftCols(bx) = next_cx;
+  combine(start, ritz.coordinates, w);
+  combine(cw, ritz.coordinates, p);
+  s.leftCols(bx) = w;
+  cs.leftCols(bx) = p;
+  p.resize(n, 0);  // no P in the first iteration
+  cp.resize(n, 0);
   start.resize(0, 0);
   Eigen::VectorXd lambda = ritz.values;
   Eigen::MatrixXd correction;
@@ -144,20 +177,19 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     s.middleCols(bx + bw, bp) = p;
     cs.middleCols(bx + bw, bp) = cp;
     const auto basis = s.leftCols(cols), image = cs.leftCols(cols);
-    ritz = rayleigh_ritz(gram(basis, basis), gram(basis, image), b);
+    const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
+    ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
     // New X, and P = its part along W and P, formed as that combination: X_new - X c_x would
     // be the same in exact arithmetic, but it cancels as X converges and leaves P and C P
     // inconsistent (the iteration then diverges; seen at residuals near 1e-6).
     const Eigen::MatrixXd tail_coordinates = ritz.coordinates.bottomRows(tail);
-    combine(basis.rightCols(tail), tail_coordinates, next_p);
-    combine(image.rightCols(tail), tail_coordinates, next_cp);
-    combine(basis, ritz.coordinates, next_x);
-    combine(image, ritz.coordinates, next_cx);
-    s.leftCols(keep) = next_x;
-    cs.leftCols(keep) = next_cx;
-    p.swap(next_p);
-    cp.swap(next_cp);
+    combine(basis.rightCols(tail), tail_coordinates, p);
+    combine(image.rightCols(tail), tail_coordinates, cp);
+    combine(basis, ritz.coordinates, w);
+    combine(image, ritz.coordinates, cw);
+    s.leftCols(keep) = w;
+    cs.leftCols(keep) = cw;
     bx = keep;
     lambda = ritz.values;
   }
