@@ -193,12 +193,12 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     }
     contours_.push_back(std::move(ct));
   }
-  row_scale_.resize(n_all);
-  for (const Contour& ct : contours_) row_scale_.segment(ct.offset, ct.n).setConstant(ct.scale);
+  Eigen::VectorXd row_scale(n_all);  // c of each row's contour
+  for (const Contour& ct : contours_) row_scale.segment(ct.offset, ct.n).setConstant(ct.scale);
   transform_of_mass_.resize(n_all);
   gauss_transform(mass_.data(), transform_of_mass_.data());
   // L_ii = -c sum_{j != i} G(d_ij) mu_j; the transform includes j = i with G(0) = 1.
-  diagonal_ = -row_scale_.cwiseProduct(transform_of_mass_ - mass_);
+  diagonal_ = -row_scale.cwiseProduct(transform_of_mass_ - mass_);
 }
 
 double MatrixFreeLaplacian::direct_share() const {

@@ -114,7 +114,7 @@ private:
 
   std::vector<Contour> contours_;
   std::vector<Eigen::Index> offset_;
-  Eigen::VectorXd mass_, s_, diagonal_, transform_of_mass_, row_scale_;
+  Eigen::VectorXd mass_, s_, diagonal_, transform_of_mass_;
   Eigen::MatrixX2d positions_;
   std::vector<Eigen::Index> back_, fwd_;  // the geodesic window of each row
   double t_ = 0, length_scale_ = 0, cut_ = 0, delta_ = 0, box_ = 0, scale_ = 0;
