@@ -24,40 +24,45 @@ using ConstBlock = Eigen::Ref<const Eigen::MatrixXd>;
 
 Eigen::Index chunk_count(Eigen::Index n) { return (n + kChunkRows - 1) / kChunkRows; }
 
-// x^T y
-Eigen::MatrixXd gram(const ConstBlock& x, const ConstBlock& y) {
-  const Eigen::Index chunks = chunk_count(x.rows());
+// The sum over row chunks of product(first, rows, partial), each partial a rows_out x
+// cols_out matrix (zero to start with) computed on one thread.
+template <typename ChunkProduct>
+Eigen::MatrixXd sum_over_chunks(Eigen::Index n, Eigen::Index rows_out, Eigen::Index cols_out,
+                                const ChunkProduct& product) {
+  const Eigen::Index chunks = chunk_count(n);
   std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < chunks; ++k) {
-    const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
-    partial[k].noalias() = x.middleRows(first, rows).transpose() * y.middleRows(first, rows);
+    const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, n - first);
+    partial[k] = Eigen::MatrixXd::Zero(rows_out, cols_out);
+    product(first, rows, partial[k]);
   }
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(x.cols(), y.cols());
+  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(rows_out, cols_out);
   for (const Eigen::MatrixXd& p : partial) sum += p;
   return sum;
+}
+
+// x^T y
+Eigen::MatrixXd gram(const ConstBlock& x, const ConstBlock& y) {
+  return sum_over_chunks(x.rows(), x.cols(), y.cols(), [&](Eigen::Index first, Eigen::Index rows, Eigen::MatrixXd& out) {
+    out.noalias() = x.middleRows(first, rows).transpose() * y.middleRows(first, rows);
+  });
 }
 
 // x^T y when that is symmetric (y = x, or y = C x with C symmetric), from the blocks on and
 // above its diagonal: y's columns fall into blocks ending at `ends`, and the blocks below the
 // diagonal are the transposes of those above. For three equal blocks, 6 of the 9 products.
 Eigen::MatrixXd symmetric_gram(const ConstBlock& x, const ConstBlock& y, const std::vector<Eigen::Index>& ends) {
-  const Eigen::Index chunks = chunk_count(x.rows()), cols = x.cols();
-  std::vector<Eigen::MatrixXd> partial(static_cast<std::size_t>(chunks));
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index k = 0; k < chunks; ++k) {
-    const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
-    partial[k] = Eigen::MatrixXd::Zero(cols, cols);
+  const Eigen::Index cols = x.cols();
+  Eigen::MatrixXd sum = sum_over_chunks(x.rows(), cols, cols, [&](Eigen::Index first, Eigen::Index rows, Eigen::MatrixXd& out) {
     Eigen::Index begin = 0;
     for (const Eigen::Index end : ends) {
       if (end > begin)
-        partial[k].block(0, begin, end, end - begin).noalias() =
+        out.block(0, begin, end, end - begin).noalias() =
             x.middleRows(first, rows).leftCols(end).transpose() * y.middleRows(first, rows).middleCols(begin, end - begin);
       begin = end;
     }
-  }
-  Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(cols, cols);
-  for (const Eigen::MatrixXd& p : partial) sum += p;
+  });
   std::vector<int> block_of(static_cast<std::size_t>(cols));
   for (Eigen::Index c = 0, b = 0; c < cols; ++c) {
     while (c >= ends[static_cast<std::size_t>(b)]) ++b;

@@ -511,10 +511,13 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
         const int columns = taylor_columns(p), half = half_columns(p);
         for (int m = 0; m < columns; ++m) local[m] = 0;  // in taylor_column order
-        auto matrix = [&](Eigen::Index d, double offset) {  // T for a source box d boxes behind
-          if (d >= -reach_ && d <= reach_) return translation_.data() + static_cast<std::size_t>(d + reach_) * p * columns;
+        auto computed = [&](double offset) {  // T for a source box `offset` behind the centre
           translation_matrix(offset * inv_delta, p, t_wrapped);
           return static_cast<const double*>(t_wrapped);
+        };
+        auto matrix = [&](Eigen::Index d) {  // T for a source box d boxes behind: stored if in reach
+          if (d >= -reach_ && d <= reach_) return translation_.data() + static_cast<std::size_t>(d + reach_) * p * columns;
+          return computed(static_cast<double>(d) * box);
         };
         auto add_box = [&](const double* moments, const double* T) {  // local += A T, a row of T at a time
           for (int q = 0; q < p; ++q) {
@@ -530,10 +533,10 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
             const Eigen::Index d = kt - k, partner = kt + d;
             if (d < 0 && 2 * kt - k >= first && -d <= reach_) continue;  // taken with its partner
             if (d <= 0 || partner > last || d > reach_) {
-              add_box(H + k * p, matrix(d, static_cast<double>(d) * box));
+              add_box(H + k * p, matrix(d));
               continue;
             }
-            const double* T = matrix(d, static_cast<double>(d) * box);
+            const double* T = matrix(d);
             const double *left = H + k * p, *right = H + partner * p;
             double sum[64], difference[64];
             for (int q = 0; q < p; ++q) {
@@ -550,8 +553,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         } else {  // the core wraps around the contour's start: box by box
           for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
             const Eigen::Index d = kt - k;
-            add_box(H + k * p, shift == 0.0 ? matrix(d, static_cast<double>(d) * box)
-                                            : matrix(reach_ + 1, centre - ((k + 0.5) * box + shift)));
+            add_box(H + k * p, shift == 0.0 ? matrix(d) : computed(centre - ((k + 0.5) * box + shift)));
           });
         }
         // The core's Taylor expansion at every target of the box: Horner steps in lockstep
