@@ -85,6 +85,33 @@ void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out
   }
 }
 
+// out -= x c (not aliased with x)
+void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out) {
+  const Eigen::Index chunks = chunk_count(x.rows());
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index k = 0; k < chunks; ++k) {
+    const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
+    out.middleRows(first, rows).noalias() -= x.middleRows(first, rows) * c;
+  }
+}
+
+// The first c.cols() columns of m <- (its first c.rows() columns) c + add. In place, chunk by
+// chunk of rows: a chunk's product reads only its own rows, so it may overwrite them (no
+// N-row temporary to fault in and copy back).
+void combine_in_place(Eigen::MatrixXd& m, const Eigen::MatrixXd& c, const Eigen::MatrixXd& add) {
+  const Eigen::Index chunks = chunk_count(m.rows());
+#pragma omp parallel
+  {
+    Eigen::MatrixXd product;  // one chunk, reused by the thread
+#pragma omp for schedule(static)
+    for (Eigen::Index k = 0; k < chunks; ++k) {
+      const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, m.rows() - first);
+      product.noalias() = m.middleRows(first, rows).leftCols(c.rows()) * c;
+      m.middleRows(first, rows).leftCols(c.cols()) = product + add.middleRows(first, rows);
+    }
+  }
+}
+
 // Coordinates of an orthonormal basis of span(S), from S's Gram matrix alone: columns scaled
 // to unit norm (the Gram matrix then measures dependence, not size), eigen-decomposition
 // V D V^T, directions with D below 1e-12 of the largest dropped (they would amplify rounding
@@ -136,8 +163,9 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   const Eigen::Index n = start.rows(), b = start.cols();
   // Every N-row block is allocated once, here: at large N a fresh block per iteration cost
   // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each).
-  // The basis [X | W | P] and its image live side by side in s and cs; once copied there, W,
-  // C W, P and C P are free, and take the next X, C X, P and C P (9 blocks of N x b in all).
+  // The basis [X | W | P] and its image live side by side in s and cs; once copied there, P
+  // and C P are free for the next P and C P, and the next X and C X are formed in place
+  // (11 blocks of N x b in all).
   Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, b), cp(n, b);
   for (Eigen::MatrixXd* m : {&s, &cs, &r, &w, &cw, &p, &cp})
     advise_huge_pages(m->data(), sizeof(double) * static_cast<std::size_t>(m->size()));
@@ -153,7 +181,6 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   cp.resize(n, 0);
   start.resize(0, 0);
   Eigen::VectorXd lambda = ritz.values;
-  Eigen::MatrixXd correction;
   for (int iteration = 0;; ++iteration) {
     const auto x = s.leftCols(bx), cx = cs.leftCols(bx);
     r.resize(n, bx);  // no-op unless Rayleigh-Ritz dropped directions
@@ -169,10 +196,7 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     // Preconditioned residuals, made orthogonal to X (twice: once is not enough in floating
     // point when X has nearly converged), then multiplied by C.
     apply_t(r, w);
-    for (int pass = 0; pass < 2; ++pass) {
-      combine(x, gram(x, w), correction);
-      w -= correction;
-    }
+    for (int pass = 0; pass < 2; ++pass) subtract_combination(x, gram(x, w), w);
     apply_c(w, cw);
     result.products += static_cast<int>(w.cols());
     // Rayleigh-Ritz on [X, W, P]; only S^T S and S^T C S are formed (no orthonormalized copy).
@@ -185,16 +209,17 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
     ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
-    // New X, and P = its part along W and P, formed as that combination: X_new - X c_x would
-    // be the same in exact arithmetic, but it cancels as X converges and leaves P and C P
-    // inconsistent (the iteration then diverges; seen at residuals near 1e-6).
+    // P = the new X's part along W and P, formed as that combination, and the new X as
+    // X c_x + P: X_new - X c_x would be the same in exact arithmetic, but it cancels as X
+    // converges and leaves P and C P inconsistent (the iteration then diverges; seen at
+    // residuals near 1e-6). X c_x + P is X_new's own sum, in another order, at a third of the
+    // work of [X W P] c.
     const Eigen::MatrixXd tail_coordinates = ritz.coordinates.bottomRows(tail);
+    const Eigen::MatrixXd x_coordinates = ritz.coordinates.topRows(bx);
     combine(basis.rightCols(tail), tail_coordinates, p);
     combine(image.rightCols(tail), tail_coordinates, cp);
-    combine(basis, ritz.coordinates, w);
-    combine(image, ritz.coordinates, cw);
-    s.leftCols(keep) = w;
-    cs.leftCols(keep) = cw;
+    combine_in_place(s, x_coordinates, p);
+    combine_in_place(cs, x_coordinates, cp);
     bx = keep;
     lambda = ritz.values;
   }

@@ -37,8 +37,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
 Eigen::MatrixXd lobpcg_start(Eigen::Index n, Eigen::Index b);
 
 /// Bytes of the dense blocks lobpcg() holds for n rows and a block of b columns: the basis
-/// [X W P] and its image (6 b), R, W, C W, P, C P (5 b; the next X, C X, P, C P reuse the last
-/// four), the start (b).
+/// [X W P] and its image (6 b), R, W, C W, P, C P (5 b; the next P and C P reuse the last two,
+/// the next X and C X are formed in place), the start (b).
 inline double lobpcg_bytes(Eigen::Index n, Eigen::Index b) { return 12.0 * static_cast<double>(n) * b * sizeof(double); }
 
 }  // namespace digilap::detail

@@ -3,11 +3,11 @@
 #include "digilap/error.hpp"
 #include "eigen_checks.hpp"
 #include "elements.hpp"
+#include "cyclic_tridiagonal.hpp"
 #include "lobpcg.hpp"
 #include "spectrum_parts.hpp"
 
 #include <Eigen/IterativeLinearSolvers>
-#include <Eigen/SparseCholesky>
 #include <Spectra/SymEigsSolver.h>
 
 #include <algorithm>
@@ -658,12 +658,19 @@ public:
     op_.apply_contour(contour_, z_.data(), w_.data());
     y = c * x + sqrt_mass_.cwiseProduct(w_);
   }
-  // Y = C X = -(0 I - C) X, column by column.
+  // Y = C X, column by column (the scalings in parallel, as the product is).
   void apply_block(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
     y.resize(x.rows(), x.cols());
+    const double* s = sqrt_mass_.data();
+    double* z = z_.data();
     for (Eigen::Index k = 0; k < x.cols(); ++k) {
-      shifted(0.0, x.col(k).data(), y.col(k).data());
-      y.col(k) = -y.col(k);
+      const double* xk = x.col(k).data();
+      double* yk = y.col(k).data();
+#pragma omp parallel for schedule(static)
+      for (Eigen::Index i = 0; i < n_; ++i) z[i] = xk[i] / s[i];
+      op_.apply_contour(contour_, z, yk);
+#pragma omp parallel for schedule(static)
+      for (Eigen::Index i = 0; i < n_; ++i) yk[i] *= -s[i];
     }
   }
 
@@ -694,45 +701,60 @@ private:
 // "1 / ds" stiffness of consecutive rows) acts as w^2, so g(D2) = D2 (I + t D2)^-1 follows the
 // heat operator within a factor 1.3 at every frequency. T = (g(D2) + sigma)^-1 M^-1 (symmetric
 // positive definite) = (I + t D2) S^-1 with S = (1 + sigma t) K + sigma M: one sparse
-// tridiagonal (cyclic) factorization, O(N). In the symmetric form: T_y = M^(1/2) T M^(1/2).
+// tridiagonal (cyclic) factorization, O(N) (cyclic_tridiagonal.hpp). In the symmetric form: T_y = M^(1/2) T M^(1/2).
 class ArclengthPreconditioner {
 public:
-  ArclengthPreconditioner(const MatrixFreeLaplacian& op, std::size_t contour) : t_(op.contour_t()[contour]) {
-    const Eigen::Index first = op.row_offset()[contour], n = op.row_offset()[contour + 1] - first;
-    const double length = op.contour_lengths()[contour];
-    const Eigen::VectorXd mass = op.mass().segment(first, n);
-    sqrt_mass_ = mass.cwiseSqrt();
-    const double sigma = std::pow(2 * kPi / length, 2);  // the first non-zero eigenvalue's scale
-    const Eigen::VectorXd s = op.arclength().segment(first, n);
-    const double min_ds = 1e-6 * length / n;  // coincident rows: a large, finite weight
-    std::vector<Eigen::Triplet<double>> k_entries;
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const Eigen::Index j = (i + 1) % n;
-      if (i == j) continue;
-      const double ds = s[j] - s[i] + (i + 1 == n ? length : 0.0);
-      const double w = 1.0 / std::max(ds, min_ds);
-      for (auto [r, col, v] : {std::tuple{i, i, w}, {j, j, w}, {i, j, -w}, {j, i, -w}}) k_entries.emplace_back(r, col, v);
-    }
-    stiffness_.resize(n, n);
-    stiffness_.setFromTriplets(k_entries.begin(), k_entries.end());
-    Eigen::SparseMatrix<double> system = (1 + sigma * t_) * stiffness_;
-    for (Eigen::Index i = 0; i < n; ++i) system.coeffRef(i, i) += sigma * mass[i];
-    solver_.compute(system);
-    if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs: the preconditioner could not be factorized");
-  }
+  ArclengthPreconditioner(const MatrixFreeLaplacian& op, std::size_t contour)
+      : t_(op.contour_t()[contour]), factor_(system(op, contour, t_, edge_weights_, sqrt_mass_)) {}
+
+  // out = T_y r, column by column (each column's solve is a sequential sweep: the columns
+  // are the parallel work, and each is computed the same way whatever the thread count).
   void apply_block(const Eigen::MatrixXd& r, Eigen::MatrixXd& out) const {
-    scaled_.noalias() = sqrt_mass_.asDiagonal() * r;  // buffers reused: no page faults per call
-    z_ = solver_.solve(scaled_);
-    out.noalias() = stiffness_ * z_;
-    out = sqrt_mass_.asDiagonal() * z_ + t_ * (sqrt_mass_.cwiseInverse().asDiagonal() * out);
+    const Eigen::Index n = r.rows();
+    out.resize(n, r.cols());
+#pragma omp parallel for schedule(static)
+    for (Eigen::Index c = 0; c < r.cols(); ++c) {
+      double* z = out.col(c).data();
+      const double* rc = r.col(c).data();
+      for (Eigen::Index i = 0; i < n; ++i) z[i] = sqrt_mass_[i] * rc[i];
+      factor_.solve_in_place(z);  // z = S^-1 M^(1/2) r
+      // out = M^(1/2) z + t M^(-1/2) K z, in place: z's neighbours are read before they are overwritten.
+      const double z_first = z[0];
+      double z_previous = z[n - 1];
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double zi = z[i], z_next = i + 1 < n ? z[i + 1] : z_first;
+        const double kz = edge_weights_[i == 0 ? n - 1 : i - 1] * (zi - z_previous) + edge_weights_[i] * (zi - z_next);
+        z[i] = sqrt_mass_[i] * zi + t_ * kz / sqrt_mass_[i];
+        z_previous = zi;
+      }
+    }
   }
 
 private:
-  Eigen::VectorXd sqrt_mass_;
+  // S = (1 + sigma t) K + sigma M, with K's edge weights 1 / ds (edge i joins rows i and i + 1 mod n).
+  static detail::CyclicTridiagonalLDLT system(const MatrixFreeLaplacian& op, std::size_t contour, double t,
+                                              Eigen::VectorXd& edge_weights, Eigen::VectorXd& sqrt_mass) {
+    const Eigen::Index first = op.row_offset()[contour], n = op.row_offset()[contour + 1] - first;
+    const double length = op.contour_lengths()[contour];
+    const Eigen::VectorXd mass = op.mass().segment(first, n);
+    sqrt_mass = mass.cwiseSqrt();
+    const double sigma = std::pow(2 * kPi / length, 2);  // the first non-zero eigenvalue's scale
+    const Eigen::VectorXd s = op.arclength().segment(first, n);
+    const double min_ds = 1e-6 * length / n;  // coincident rows: a large, finite weight
+    edge_weights.resize(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double ds = i + 1 < n ? s[i + 1] - s[i] : s[0] + length - s[i];
+      edge_weights[i] = 1.0 / std::max(ds, min_ds);
+    }
+    Eigen::VectorXd diagonal(n), coupling = -(1 + sigma * t) * edge_weights;
+    for (Eigen::Index i = 0; i < n; ++i)
+      diagonal[i] = (1 + sigma * t) * (edge_weights[i] + edge_weights[i == 0 ? n - 1 : i - 1]) + sigma * mass[i];
+    return detail::CyclicTridiagonalLDLT(diagonal, coupling);
+  }
+
   double t_;
-  Eigen::SparseMatrix<double> stiffness_;
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver_;
-  mutable Eigen::MatrixXd scaled_, z_;
+  Eigen::VectorXd edge_weights_, sqrt_mass_;  // filled by system(), before factor_
+  detail::CyclicTridiagonalLDLT factor_;
 };
 
 // The `count` smallest eigenpairs of contour c's block: dense when small, else preconditioned

@@ -1,9 +1,11 @@
-// The matrix-free operator against the explicit matrix; spectrum and CG heat step through it.
+// The matrix-free operator against the explicit matrix; spectrum and CG heat step through it;
+// the cyclic tridiagonal solver of its eigen solver's preconditioner.
 #include "digilap/error.hpp"
 #include "digilap/ground_truth.hpp"
 #include "digilap/heat_flow.hpp"
 #include "digilap/matrix_free.hpp"
 #include "digilap/spectrum.hpp"
+#include "cyclic_tridiagonal.hpp"  // internal (lib/): the preconditioner's solver
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -300,4 +302,46 @@ TEST(MatrixFree, RefusesWhatIsNotAConvolution) {
   richardson.richardson = true;
   EXPECT_THROW(MatrixFreeLaplacian(s.contours, s.mu, richardson), Error);
   EXPECT_THROW(MatrixFreeLaplacian(s.contours, s.mu, {}, 0.0), Error);
+}
+
+// The eigen solver's preconditioner solves a cyclic tridiagonal system (lib/cyclic_tridiagonal.hpp):
+// against a dense LU of the same matrix, at the sizes where the corner entries meet the last
+// row's fill (3, 4) and larger. The matrices are diagonally dominant (condition number below
+// about 10), so a backward-stable solve leaves x within about 1e-15 n of the dense one: 1e-12
+// relative allows for that with room, and a wrong fill entry or pivot is off by O(1).
+TEST(CyclicTridiagonal, SolvesLikeADenseFactorization) {
+  std::uint64_t state = 12345;
+  auto uniform = [&state] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>(state >> 11) * 0x1.0p-53;
+  };
+  for (Eigen::Index n : {3, 4, 5, 9, 200}) {
+    Eigen::VectorXd coupling(n), diagonal(n), b(n);
+    for (Eigen::Index i = 0; i < n; ++i) coupling[i] = -(0.1 + uniform());
+    for (Eigen::Index i = 0; i < n; ++i)
+      diagonal[i] = std::abs(coupling[i]) + std::abs(coupling[(i + n - 1) % n]) + 0.05 + uniform();
+    for (Eigen::Index i = 0; i < n; ++i) b[i] = uniform() - 0.5;
+    Eigen::MatrixXd dense = diagonal.asDiagonal();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      dense(i, (i + 1) % n) += coupling[i];
+      dense((i + 1) % n, i) += coupling[i];
+    }
+    const Eigen::VectorXd expected = dense.partialPivLu().solve(b);
+    const detail::CyclicTridiagonalLDLT factor(diagonal, coupling);
+    Eigen::VectorXd x = b;
+    factor.solve_in_place(x.data());
+    EXPECT_LE((x - expected).cwiseAbs().maxCoeff(), 1e-12 * expected.cwiseAbs().maxCoeff()) << "n " << n;
+  }
+}
+
+TEST(CyclicTridiagonal, RefusesWhatItCannotFactorize) {
+  const Eigen::VectorXd two = Eigen::VectorXd::Ones(2);
+  EXPECT_THROW(detail::CyclicTridiagonalLDLT(two, two), Error);  // n < 3
+  EXPECT_THROW(detail::CyclicTridiagonalLDLT(Eigen::VectorXd::Ones(4), Eigen::VectorXd::Ones(3)), Error);
+  // 2 on the diagonal, -1 around the loop: the loop's Laplacian, singular (constants), whose
+  // last pivot is 0 up to rounding.
+  for (Eigen::Index n : {6, 1001})
+    EXPECT_THROW(detail::CyclicTridiagonalLDLT(Eigen::VectorXd::Constant(n, 2.0), Eigen::VectorXd::Constant(n, -1.0)),
+                 Error) << n;
+  EXPECT_THROW(detail::CyclicTridiagonalLDLT(-Eigen::VectorXd::Ones(5), Eigen::VectorXd::Zero(5)), Error);
 }
