@@ -9,6 +9,7 @@
 
 #include <Eigen/IterativeLinearSolvers>
 #include <Spectra/SymEigsSolver.h>
+#include <omp.h>
 
 #include <algorithm>
 #include <array>
@@ -366,11 +367,12 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
 
 void MatrixFreeLaplacian::gauss_transform(const double* f, double* out, const double* x, double* y) const {
   for (const Contour& ct : contours_)
-    contour_transform(ct, f + ct.offset, out + ct.offset, x ? x + ct.offset : nullptr, y ? y + ct.offset : nullptr);
+    contour_transform(ct, f + ct.offset, out + ct.offset, scratch_.box_moments, x ? x + ct.offset : nullptr,
+                      y ? y + ct.offset : nullptr);
 }
 
-void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc, const double* xc,
-                                            double* yc) const {
+void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc,
+                                            std::vector<double>& box_moments, const double* xc, double* yc) const {
   // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
   const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
   auto finish = [&](Eigen::Index i0, Eigen::Index i1) {
@@ -396,12 +398,13 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
     // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta:
     // sources in lanes of kLanes, so that the power chains run side by side (vectorized);
     // the lanes are summed in a fixed order (the same result for any number of threads).
-    box_moments_.resize(std::max(box_moments_.size(), static_cast<std::size_t>(ct.boxes) * p));
-    double* H = box_moments_.data();
+    box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
+    double* H = box_moments.data();
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < ct.boxes; ++k) {
       const double centre = (k + 0.5) * box;
-      double acc[64][kLanes] = {};
+      double acc[64][kLanes];  // only the p rows used are zeroed (all 64 were 4 KiB a box)
+      std::fill_n(&acc[0][0], static_cast<std::size_t>(p) * kLanes, 0.0);
       for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; j += kLanes) {
         const Eigen::Index lanes = std::min<Eigen::Index>(kLanes, ct.box_start[k + 1] - j);
         double power[kLanes], v[kLanes];
@@ -592,26 +595,51 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
 void MatrixFreeLaplacian::apply(const double* x, double* y) const {
   const Eigen::Index n = rows();
   // Scratch kept between products (a fresh 2 N doubles per product were page faults).
-  weighted_.resize(n);
-  transformed_.resize(n);
-  double* f = weighted_.data();
-  double* g = transformed_.data();
+  scratch_.weighted.resize(n);
+  scratch_.transformed.resize(n);
+  double* f = scratch_.weighted.data();
+  double* g = scratch_.transformed.data();
 #pragma omp parallel for schedule(static)
   for (Eigen::Index i = 0; i < n; ++i) f[i] = mass_[i] * x[i];
   gauss_transform(f, g, x, y);
 }
 
 void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
+  apply_contour_with(c, x, y, scratch_);
+}
+
+void MatrixFreeLaplacian::apply_contour_with(std::size_t c, const double* x, double* y, Scratch& scratch) const {
   if (c >= contours_.size()) throw Error("MatrixFreeLaplacian::apply_contour: no contour " + std::to_string(c));
   const Contour& ct = contours_[c];
-  weighted_.resize(ct.n);
-  transformed_.resize(ct.n);
-  double* f = weighted_.data();
-  double* g = transformed_.data();
+  scratch.weighted.resize(ct.n);
+  scratch.transformed.resize(ct.n);
+  double* f = scratch.weighted.data();
+  double* g = scratch.transformed.data();
   const double* mass = mass_.data() + ct.offset;
 #pragma omp parallel for schedule(static)
   for (Eigen::Index i = 0; i < ct.n; ++i) f[i] = mass[i] * x[i];
-  contour_transform(ct, f, g, x, y);
+  contour_transform(ct, f, g, scratch.box_moments, x, y);
+}
+
+void MatrixFreeLaplacian::apply_contour_block(std::size_t c, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
+  if (c >= contours_.size()) throw Error("MatrixFreeLaplacian::apply_contour_block: no contour " + std::to_string(c));
+  if (x.rows() != contours_[c].n)
+    throw Error("MatrixFreeLaplacian::apply_contour_block: the block has " + std::to_string(x.rows()) +
+                " rows, contour " + std::to_string(c) + " has " + std::to_string(contours_[c].n));
+  y.resize(x.rows(), x.cols());
+  // One column per thread at a time. The product's own parallel loops then run on a team of
+  // one (nested regions are inactive); its result does not depend on the team's size, so the
+  // block equals the column-by-column products bit for bit, whatever the thread count.
+  if (x.cols() < 2 || omp_get_max_threads() < 2 || omp_in_parallel()) {
+    for (Eigen::Index k = 0; k < x.cols(); ++k) apply_contour(c, x.col(k).data(), y.col(k).data());
+    return;
+  }
+#pragma omp parallel
+  {
+    Scratch scratch;
+#pragma omp for schedule(dynamic, 1)
+    for (Eigen::Index k = 0; k < x.cols(); ++k) apply_contour_with(c, x.col(k).data(), y.col(k).data(), scratch);
+  }
 }
 
 Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
@@ -658,20 +686,17 @@ public:
     op_.apply_contour(contour_, z_.data(), w_.data());
     y = c * x + sqrt_mass_.cwiseProduct(w_);
   }
-  // Y = C X, column by column (the scalings in parallel, as the product is).
+  // Y = C X = -M^(1/2) L_c M^(-1/2) X: the columns' products side by side (apply_contour_block).
   void apply_block(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-    y.resize(x.rows(), x.cols());
+    scaled_.resize(x.rows(), x.cols());  // one block, reused by every call
     const double* s = sqrt_mass_.data();
-    double* z = z_.data();
-    for (Eigen::Index k = 0; k < x.cols(); ++k) {
-      const double* xk = x.col(k).data();
-      double* yk = y.col(k).data();
 #pragma omp parallel for schedule(static)
-      for (Eigen::Index i = 0; i < n_; ++i) z[i] = xk[i] / s[i];
-      op_.apply_contour(contour_, z, yk);
+    for (Eigen::Index k = 0; k < x.cols(); ++k)
+      for (Eigen::Index i = 0; i < n_; ++i) scaled_(i, k) = x(i, k) / s[i];
+    op_.apply_contour_block(contour_, scaled_, y);
 #pragma omp parallel for schedule(static)
-      for (Eigen::Index i = 0; i < n_; ++i) yk[i] *= -s[i];
-    }
+    for (Eigen::Index k = 0; k < y.cols(); ++k)
+      for (Eigen::Index i = 0; i < n_; ++i) y(i, k) *= -s[i];
   }
 
 private:
@@ -680,6 +705,7 @@ private:
   Eigen::Index first_, n_;
   Eigen::VectorXd sqrt_mass_;
   mutable Eigen::VectorXd z_, w_;
+  mutable Eigen::MatrixXd scaled_;
 };
 
 // Spectra's view of c I - C (largest eigenvalues = the wanted smallest of C).
@@ -789,7 +815,8 @@ Spectrum contour_spectrum(const MatrixFreeLaplacian& op, std::size_t contour, in
   // same scale as Lanczos's Ritz-value test on c I - C.
   constexpr int kLobpcgIterations = 300;
   const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
-  const double lobpcg_need = detail::lobpcg_bytes(n, block);
+  // LOBPCG's blocks, and the form's scaled copy of the block it multiplies.
+  const double lobpcg_need = detail::lobpcg_bytes(n, block) + 8.0 * static_cast<double>(n) * static_cast<double>(block);
   if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {
     const ArclengthPreconditioner preconditioner(op, contour);
     const detail::LobpcgResult r = detail::lobpcg(

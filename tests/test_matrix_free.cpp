@@ -173,6 +173,36 @@ TEST(MatrixFree, BitwiseIdenticalForOneAndTwoThreads) {
   }
 }
 
+// A block's columns are multiplied side by side, each on one thread with scratch of its own:
+// bit for bit the column-by-column products, on the flower and on three contours (an annulus
+// and a disc), with boxes summed directly too (k = 0.5).
+TEST(MatrixFree, BlockProductEqualsTheColumnByColumnProducts) {
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(2);
+  for (const Pipeline& s : {pipeline(Flower(), 0.002), annulus_and_disc()}) {
+    for (double k : {6.0, 0.5}) {
+      HeatLaplacianOptions o;
+      o.k = k;
+      const MatrixFreeLaplacian mf(s.contours, s.mu, o);
+      for (std::size_t c = 0; c + 1 < mf.row_offset().size(); ++c) {
+        const Eigen::Index n = mf.row_offset()[c + 1] - mf.row_offset()[c];
+        const Eigen::MatrixXd x = Eigen::MatrixXd::Random(n, 5);
+        Eigen::MatrixXd block, columns(n, 5);
+        mf.apply_contour_block(c, x, block);
+        for (Eigen::Index j = 0; j < 5; ++j) mf.apply_contour(c, x.col(j).data(), columns.col(j).data());
+        ASSERT_EQ(block.rows(), n);
+        ASSERT_EQ(block.cols(), 5);
+        EXPECT_EQ(std::memcmp(block.data(), columns.data(), sizeof(double) * columns.size()), 0)
+            << "contour " << c << " k " << k << ": max difference " << (block - columns).cwiseAbs().maxCoeff();
+      }
+      Eigen::MatrixXd y;
+      EXPECT_THROW(mf.apply_contour_block(0, Eigen::MatrixXd::Zero(3, 2), y), Error);  // wrong row count
+      EXPECT_THROW(mf.apply_contour_block(99, Eigen::MatrixXd::Zero(3, 2), y), Error);  // no such contour
+    }
+  }
+  omp_set_num_threads(threads);
+}
+
 TEST(MatrixFree, AccuracyFollowsEpsilon) {
   const Pipeline s = pipeline(Flower(), 0.005);
   const ContourOperator op = heat_laplacian(s.contours, s.mu);
