@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <numeric>
 #include <sstream>
 #include <tuple>
@@ -43,6 +44,11 @@ int hermite_order(double rho, double epsilon) {
 // window ends), times the bound `gaussian` on the factored Gaussian, is below epsilon:
 // gaussian e^x x^q / q! / (1 - x / (q + 1)). Returns kMaxBandOrder + 1 when none is.
 constexpr int kMaxBandOrder = 24;
+constexpr int kMaxBandPairs = (kMaxBandOrder + 1) / 2;
+constexpr int kMaxHalfPairs = 16;  // half_columns(63) / 2
+// Two doubles as one vector (GCC and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
+// plain pairs elsewhere). The band loops use it where the compiler would not vectorize.
+using Pair = double __attribute__((vector_size(16)));
 constexpr int kLanes = 8;  // sources whose power chains run side by side
 int band_series_order(double x, double gaussian, double epsilon) {
   double term = gaussian * std::exp(x);  // gaussian e^x x^q / q!
@@ -80,16 +86,6 @@ void translation_matrix(double u, int p, double* T) {
   }
 }
 
-// power[q] = first x^q for q < count (count <= the buffer, >= 4 entries), as four interleaved
-// chains (x^q = x^(q-4) x^4): one chain of dependent products per source was the hot spot.
-inline void scaled_powers(double first, double x, int count, double* power) {
-  const double x2 = x * x, x4 = x2 * x2;
-  power[0] = first;
-  power[1] = first * x;
-  power[2] = first * x2;
-  power[3] = power[1] * x2;
-  for (int q = 4; q < count; ++q) power[q] = power[q - 4] * x4;
-}
 }  // namespace
 
 MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures,
@@ -441,42 +437,50 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
       double local[64];
       std::vector<double> wrapped_storage(static_cast<std::size_t>(p) * taylor_columns(p));
       double* t_wrapped = wrapped_storage.data();
-      std::vector<double> forward_rows, backward_rows;
+      std::vector<Pair> forward_rows, backward_rows;
       // Moments sum w_j (2 beta_j)^n / n!, n < q_band (the box's band order), of the sources of
       // a band, accumulated in the band's order (forward: prefix sums, row r + 1 holds the sum
       // over its first r + 1 sources, row 0 none) or against it (backward: suffix sums, row r
-      // holds the sum over its sources from r on, row count none). `order` is the band order
-      // as a compile-time constant (fixed-length loops; the hot spot of the product), or 0
-      // for q_band at run time.
-      auto band_moments = [&](const Band& band, bool prefix, int q_band, auto order, std::vector<double>& rows) {
-        constexpr int kOrder = decltype(order)::value;
-        if constexpr (kOrder > 0) q_band = kOrder;
+      // holds the sum over its sources from r on, row count none). Terms go in pairs (n, n + 1)
+      // as two-lane vectors, rows padded to an even length: the compiler left this scalar, and
+      // it is the hot spot of the product. `pairs` is the pair count as a compile-time
+      // constant (fixed-length loops), or 0 for (q_band + 1) / 2 at run time.
+      auto band_moments = [&](const Band& band, bool prefix, int q_band, auto pairs, std::vector<Pair>& rows) {
+        constexpr int kPairs = decltype(pairs)::value;
+        const int v_count = kPairs > 0 ? kPairs : (q_band + 1) / 2;
         const Eigen::Index count = band.hi - band.lo + 1;
-        rows.resize(static_cast<std::size_t>(count + 1) * q_band);
-        std::fill_n(rows.data() + (prefix ? 0 : count * q_band), q_band, 0.0);
+        rows.resize(static_cast<std::size_t>(count + 1) * v_count);
+        std::fill_n(rows.data() + (prefix ? 0 : count * v_count), v_count, Pair{0, 0});
         const double* beta = band_beta_.data() + band.data;
         const double* weight = band_weight_.data() + band.data;
-        double acc[kMaxBandOrder + 1] = {0};
+        Pair acc[kMaxBandPairs], factorial[kMaxBandPairs];
+        for (int k = 0; k < v_count; ++k) {
+          acc[k] = Pair{0, 0};
+          factorial[k] = Pair{inverse_factorial[2 * k], 2 * k + 1 < q_band ? inverse_factorial[2 * k + 1] : 0.0};
+        }
         for (Eigen::Index r = 0; r < count; ++r) {
           const Eigen::Index v = prefix ? r : count - 1 - r;
           const Eigen::Index u = band.lo + v;
           const Eigen::Index j = u < 0 ? u + n : (u >= n ? u - n : u);
-          double power[kMaxBandOrder + 4];  // w (2 beta)^q, then 1 / q! from a table
-          scaled_powers(fc[j] * weight[v], 2 * beta[v], q_band, power);
-          double* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * q_band;
-          for (int q = 0; q < q_band; ++q) {
-            acc[q] += power[q] * inverse_factorial[q];
-            row[q] = acc[q];
+          const double w = fc[j] * weight[v], x = 2 * beta[v], x2 = x * x;
+          Pair power{w, w * x};  // w x^(2k), w x^(2k+1)
+          const Pair step{x2, x2};
+          Pair* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * v_count;
+          for (int k = 0; k < v_count; ++k) {
+            acc[k] += power * factorial[k];
+            row[k] = acc[k];
+            power *= step;
           }
         }
       };
-      // Both bands of target box kt at every target: tau_i sum_q alpha_i^q M_q(i).
-      auto add_bands = [&](Eigen::Index kt, auto order) {
-        constexpr int kOrder = decltype(order)::value;
+      // Both bands of target box kt at every target: tau_i sum_q alpha_i^q M_q(i), the powers
+      // of alpha_i in pairs as the moments are.
+      auto add_bands = [&](Eigen::Index kt, auto pairs) {
+        constexpr int kPairs = decltype(pairs)::value;
         const TargetBox& tb = ct.plan[kt];
-        const int q_band = kOrder > 0 ? kOrder : tb.band_order;
-        band_moments(tb.forward, true, q_band, order, forward_rows);
-        band_moments(tb.backward, false, q_band, order, backward_rows);
+        const int v_count = kPairs > 0 ? kPairs : (tb.band_order + 1) / 2;
+        band_moments(tb.forward, true, tb.band_order, pairs, forward_rows);
+        band_moments(tb.backward, false, tb.band_order, pairs, backward_rows);
         const Eigen::Index i0 = ct.box_start[kt], count = ct.box_start[kt + 1] - i0;
         const Eigen::Index forward_count = tb.forward.hi - tb.forward.lo + 1, backward_count = tb.backward.hi - tb.backward.lo + 1;
         const double* alpha = alpha_.data() + ct.offset + i0;
@@ -489,14 +493,17 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
           // before the band begins (or begin after it ends).
           const Eigen::Index forward_row = std::clamp<Eigen::Index>(i0 + i + fwd_[row] - tb.forward.lo + 1, 0, forward_count);
           const Eigen::Index backward_row = std::clamp<Eigen::Index>(i0 + i - back_[row] - tb.backward.lo, 0, backward_count);
-          const double* mf = forward_rows.data() + static_cast<std::size_t>(forward_row) * q_band;
-          const double* mb = backward_rows.data() + static_cast<std::size_t>(backward_row) * q_band;
-          double sf = 0, sb = 0;
-          for (int q = q_band - 1; q >= 0; --q) {
-            sf = sf * alpha[i] + mf[q];
-            sb = sb * alpha[i] + mb[q];
+          const Pair* mf = forward_rows.data() + static_cast<std::size_t>(forward_row) * v_count;
+          const Pair* mb = backward_rows.data() + static_cast<std::size_t>(backward_row) * v_count;
+          const double a = alpha[i];
+          Pair power{1.0, a}, sf{0, 0}, sb{0, 0};
+          const Pair step{a * a, a * a};
+          for (int k = 0; k < v_count; ++k) {
+            sf += mf[k] * power;
+            sb += mb[k] * power;
+            power *= step;
           }
-          out_box[i] += tau_f[i] * sf + tau_b[i] * sb;
+          out_box[i] += tau_f[i] * (sf[0] + sf[1]) + tau_b[i] * (sb[0] + sb[1]);
         }
       };
 #pragma omp for schedule(dynamic, 4)
@@ -528,30 +535,52 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
             for (int m = 0; m < columns; ++m) local[m] += a * T[q * columns + m];
           }
         };
-        if (tb.core_lo >= 0 && tb.core_hi < n) {
-          // Boxes kt - d and kt + d in one product: with E_q = A_q(kt - d) + (-1)^q A_q(kt + d)
-          // and O_q = A_q(kt - d) - (-1)^q A_q(kt + d), B_m = sum_q (E_q or O_q, m even or odd) T_d[q][m].
+        // Boxes kt - d and kt + d in one product: with E_q = A_q(kt - d) + (-1)^q A_q(kt + d)
+        // and O_q = A_q(kt - d) - (-1)^q A_q(kt + d), B_m = sum_q (E_q or O_q, m even or odd) T_d[q][m].
+        // The sums B are held in two-lane vectors, `half_pairs` of them per half (a compile-time
+        // constant, or 0 for half / 2 at run time), so that they stay in registers.
+        auto paired_core = [&](auto half_pairs) {
+          constexpr int kHalfPairs = decltype(half_pairs)::value;
+          const int pairs = kHalfPairs > 0 ? kHalfPairs : half / 2;
+          Pair b[2 * kMaxHalfPairs];  // even columns, then odd ones
+          for (int c = 0; c < 2 * pairs; ++c) b[c] = Pair{0, 0};
+          auto add_row = [&](const double* t, double even, double odd) {  // b += (even | odd) * row t of T
+            const Pair e{even, even}, o{odd, odd};
+            for (int c = 0; c < pairs; ++c) {
+              Pair te, to;
+              std::memcpy(&te, t + 2 * c, sizeof te);
+              std::memcpy(&to, t + half + 2 * c, sizeof to);
+              b[c] += e * te;
+              b[pairs + c] += o * to;
+            }
+          };
           const Eigen::Index first = tb.core_first_box, last = tb.core_last_box;
           for (Eigen::Index k = first; k <= last; ++k) {
             const Eigen::Index d = kt - k, partner = kt + d;
             if (d < 0 && 2 * kt - k >= first && -d <= reach_) continue;  // taken with its partner
+            const double* T = matrix(d);
+            const double* left = H + k * p;
             if (d <= 0 || partner > last || d > reach_) {
-              add_box(H + k * p, matrix(d));
+              for (int q = 0; q < p; ++q) add_row(T + q * columns, left[q], left[q]);
               continue;
             }
-            const double* T = matrix(d);
-            const double *left = H + k * p, *right = H + partner * p;
-            double sum[64], difference[64];
+            const double* right = H + partner * p;
             for (int q = 0; q < p; ++q) {
               const double signed_right = q % 2 == 0 ? right[q] : -right[q];
-              sum[q] = left[q] + signed_right;
-              difference[q] = left[q] - signed_right;
+              add_row(T + q * columns, left[q] + signed_right, left[q] - signed_right);
             }
-            for (int q = 0; q < p; ++q) {
-              const double e = sum[q], o = difference[q];
-              for (int m = 0; m < half; ++m) local[m] += e * T[q * columns + m];
-              for (int m = half; m < columns; ++m) local[m] += o * T[q * columns + m];
-            }
+          }
+          for (int c = 0; c < pairs; ++c) {
+            std::memcpy(local + 2 * c, &b[c], sizeof b[c]);
+            std::memcpy(local + half + 2 * c, &b[pairs + c], sizeof b[c]);
+          }
+        };
+        if (tb.core_lo >= 0 && tb.core_hi < n) {
+          switch (half / 2) {
+            case 2: paired_core(std::integral_constant<int, 2>{}); break;
+            case 4: paired_core(std::integral_constant<int, 4>{}); break;  // orders 9-16 (epsilon 1e-10: 14)
+            case 6: paired_core(std::integral_constant<int, 6>{}); break;
+            default: paired_core(std::integral_constant<int, 0>{});
           }
         } else {  // the core wraps around the contour's start: box by box
           for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
@@ -576,11 +605,9 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
           for (int l = 0; l < kLanes && i + l < count; ++l) out_box[i + l] = sum[l];
         }
         // The two bands: each target reads the moments of its part of the band.
-        switch (tb.band_order) {
-          case 5: add_bands(kt, std::integral_constant<int, 5>{}); break;
-          case 6: add_bands(kt, std::integral_constant<int, 6>{}); break;
-          case 7: add_bands(kt, std::integral_constant<int, 7>{}); break;
-          case 8: add_bands(kt, std::integral_constant<int, 8>{}); break;
+        switch ((tb.band_order + 1) / 2) {
+          case 3: add_bands(kt, std::integral_constant<int, 3>{}); break;  // orders 5, 6: almost every box
+          case 4: add_bands(kt, std::integral_constant<int, 4>{}); break;
           default: add_bands(kt, std::integral_constant<int, 0>{});
         }
         // The few sources a window reaches beyond its bands, or does not reach in the core.
