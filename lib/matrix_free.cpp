@@ -149,9 +149,9 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   // Translations for the box offsets a core can have: within the cut, and within a contour.
   reach_ = std::min<Eigen::Index>(static_cast<Eigen::Index>(std::min(std::ceil(cut_ / box_), 1e15)) + 2, most_boxes);
   // Estimate before allocating: per row the windows, element arrays and band factors (about
-  // 17 doubles; for a planned row 4 band entries of 2 doubles and at most one correction of
-  // 3), per box its plan and moments.
-  const double bytes = 8.0 * (18.0 * static_cast<double>(n_all) + 11.0 * static_cast<double>(planned_rows)) +
+  // 17 doubles; for a planned row 4 band entries of 2 doubles, its band rows, and at most one
+  // correction of 3), per box its plan and moments.
+  const double bytes = 8.0 * (18.0 * static_cast<double>(n_all) + 12.0 * static_cast<double>(planned_rows)) +
                        static_cast<double>(planned_boxes) * (sizeof(TargetBox) + 16.0 + 8.0 * order_) +
                        8.0 * static_cast<double>(2 * reach_ + 1) * order_ * taylor_columns(order_);
   if (bytes > options.memory_limit_bytes) {
@@ -169,6 +169,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   back_.assign(static_cast<std::size_t>(n_all), 0);
   fwd_.assign(static_cast<std::size_t>(n_all), 0);
   alpha_ = tau_forward_ = tau_backward_ = Eigen::VectorXd::Zero(n_all);
+  band_rows_.assign(static_cast<std::size_t>(n_all), BandRows{});
   for (std::size_t c = 0; c + 1 < offset_.size(); ++c) {
     Contour ct;
     ct.offset = offset_[c];
@@ -315,10 +316,10 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
     band_order_ = std::max(band_order_, order);
     for (int b = 0; b < 2; ++b) {
       Band& band = b == 0 ? tb.forward : tb.backward;
-      band.data = band_beta_.size();
+      band.data = band_two_beta_.size();
       for (Eigen::Index u = band.lo; u <= band.hi; ++u) {
         const double x_u = position(u);
-        band_beta_.push_back((x_u - centre_of[b]) / delta);
+        band_two_beta_.push_back(2 * (x_u - centre_of[b]) / delta);
         const double d = (x_u - centre) / delta;
         band_weight_.push_back(std::exp(-d * d));
       }
@@ -336,7 +337,13 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
       for (Eigen::Index u = lo; u < tb.backward.lo; ++u) correct(u, 1.0);
     }
     tb.corrections_end = correction_.size();
+    const Eigen::Index forward_count = tb.forward.hi - tb.forward.lo + 1, backward_count = tb.backward.hi - tb.backward.lo + 1;
     for (Eigen::Index i = i0; i <= i1; ++i) {
+      // Moments row 0 (forward) and the last row (backward) are zero: for the windows that end
+      // before the band begins (or begin after it ends).
+      band_rows_[ct.offset + i] = {
+          static_cast<std::int32_t>(std::clamp<Eigen::Index>(i + fwd_[ct.offset + i] - tb.forward.lo + 1, 0, forward_count)),
+          static_cast<std::int32_t>(std::clamp<Eigen::Index>(i - back_[ct.offset + i] - tb.backward.lo, 0, backward_count))};
       const double a = (s[i] - centre) / delta;
       alpha_[ct.offset + i] = a;
       tau_forward_[ct.offset + i] = std::exp(2 * offset[0] * a - a * a);
@@ -451,26 +458,35 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         const Eigen::Index count = band.hi - band.lo + 1;
         rows.resize(static_cast<std::size_t>(count + 1) * v_count);
         std::fill_n(rows.data() + (prefix ? 0 : count * v_count), v_count, Pair{0, 0});
-        const double* beta = band_beta_.data() + band.data;
+        const double* two_beta = band_two_beta_.data() + band.data;
         const double* weight = band_weight_.data() + band.data;
         Pair acc[kMaxBandPairs], factorial[kMaxBandPairs];
         for (int k = 0; k < v_count; ++k) {
           acc[k] = Pair{0, 0};
           factorial[k] = Pair{inverse_factorial[2 * k], 2 * k + 1 < q_band ? inverse_factorial[2 * k + 1] : 0.0};
         }
-        for (Eigen::Index r = 0; r < count; ++r) {
-          const Eigen::Index v = prefix ? r : count - 1 - r;
-          const Eigen::Index u = band.lo + v;
-          const Eigen::Index j = u < 0 ? u + n : (u >= n ? u - n : u);
-          const double w = fc[j] * weight[v], x = 2 * beta[v], x2 = x * x;
-          Pair power{w, w * x};  // w x^(2k), w x^(2k+1)
-          const Pair step{x2, x2};
-          Pair* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * v_count;
-          for (int k = 0; k < v_count; ++k) {
-            acc[k] += power * factorial[k];
-            row[k] = acc[k];
-            power *= step;
+        auto accumulate = [&](auto source) {  // source(v): f of the band's source v
+          for (Eigen::Index r = 0; r < count; ++r) {
+            const Eigen::Index v = prefix ? r : count - 1 - r;
+            const double w = source(v) * weight[v], x = two_beta[v], x2 = x * x;
+            Pair power{w, w * x};  // w x^(2k), w x^(2k+1)
+            const Pair step{x2, x2};
+            Pair* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * v_count;
+            for (int k = 0; k < v_count; ++k) {
+              acc[k] += power * factorial[k];
+              row[k] = acc[k];
+              power *= step;
+            }
           }
+        };
+        if (band.lo >= 0 && band.hi < n) {  // the usual case: no wrap around the contour
+          const double* f_band = fc + band.lo;
+          accumulate([f_band](Eigen::Index v) { return f_band[v]; });
+        } else {
+          accumulate([&](Eigen::Index v) {
+            const Eigen::Index u = band.lo + v;
+            return fc[u < 0 ? u + n : (u >= n ? u - n : u)];
+          });
         }
       };
       // Both bands of target box kt at every target: tau_i sum_q alpha_i^q M_q(i), the powers
@@ -482,19 +498,14 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc,
         band_moments(tb.forward, true, tb.band_order, pairs, forward_rows);
         band_moments(tb.backward, false, tb.band_order, pairs, backward_rows);
         const Eigen::Index i0 = ct.box_start[kt], count = ct.box_start[kt + 1] - i0;
-        const Eigen::Index forward_count = tb.forward.hi - tb.forward.lo + 1, backward_count = tb.backward.hi - tb.backward.lo + 1;
         const double* alpha = alpha_.data() + ct.offset + i0;
         const double* tau_f = tau_forward_.data() + ct.offset + i0;
         const double* tau_b = tau_backward_.data() + ct.offset + i0;
+        const BandRows* band_rows = band_rows_.data() + ct.offset + i0;
         double* out_box = oc + i0;
         for (Eigen::Index i = 0; i < count; ++i) {
-          const Eigen::Index row = ct.offset + i0 + i;
-          // Row 0 (forward) and the last row (backward) are zero: for the windows that end
-          // before the band begins (or begin after it ends).
-          const Eigen::Index forward_row = std::clamp<Eigen::Index>(i0 + i + fwd_[row] - tb.forward.lo + 1, 0, forward_count);
-          const Eigen::Index backward_row = std::clamp<Eigen::Index>(i0 + i - back_[row] - tb.backward.lo, 0, backward_count);
-          const Pair* mf = forward_rows.data() + static_cast<std::size_t>(forward_row) * v_count;
-          const Pair* mb = backward_rows.data() + static_cast<std::size_t>(backward_row) * v_count;
+          const Pair* mf = forward_rows.data() + static_cast<std::size_t>(band_rows[i].forward) * v_count;
+          const Pair* mb = backward_rows.data() + static_cast<std::size_t>(band_rows[i].backward) * v_count;
           const double a = alpha[i];
           Pair power{1.0, a}, sf{0, 0}, sb{0, 0};
           const Pair step{a * a, a * a};

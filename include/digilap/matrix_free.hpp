@@ -19,6 +19,8 @@
 
 #include <Eigen/Core>
 
+#include <cstdint>
+
 #include <vector>
 
 namespace digilap {
@@ -79,7 +81,7 @@ private:
   // around the contour), expanded about their centre (see gauss_transform).
   struct Band {
     Eigen::Index lo = 0, hi = -1;
-    std::size_t data = 0;  // its first entry in band_beta_ / band_weight_
+    std::size_t data = 0;  // its first entry in band_two_beta_ / band_weight_
   };
   struct TargetBox {
     bool direct = false;                     // summed term by term (degenerate geometry)
@@ -134,7 +136,13 @@ private:
   int order_ = 0, band_order_ = 0;
   Eigen::Index reach_ = 0;
   std::vector<double> translation_;  // Hermite to Taylor matrices T_d, |d| <= reach_ (translation_matrix)
-  std::vector<double> band_beta_, band_weight_;
+  std::vector<double> band_two_beta_, band_weight_;  // per band entry: 2 beta_j, w_j
+  // Per row, the row of each band's moments its window reads (see add_bands): fixed by the
+  // plan, so read rather than recomputed from the windows at each product.
+  struct BandRows {
+    std::int32_t forward = 0, backward = 0;
+  };
+  std::vector<BandRows> band_rows_;
   std::vector<Correction> correction_;
   Eigen::VectorXd alpha_, tau_forward_, tau_backward_;
   // Scratch reused by every product (apply, apply_contour): products on one operator are
