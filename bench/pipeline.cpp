@@ -61,6 +61,8 @@ void run(double h, int threads, double eigen_min_h, double free_eigen_min_h, dou
   t0 = now();
   const MatrixFreeLaplacian mf(contours, mu, o);
   const double t_free_setup = now() - t0;
+  std::fprintf(stderr, "h %g, %d threads: matrix-free loops built for %s\n", h, threads,
+               mf.wide_kernels() ? "AVX2 + FMA" : "plain x86-64 (DIGILAP_PLAIN_KERNELS, or a CPU without AVX2)");
   const Eigen::VectorXd x = ones_like + 0.1 * mf.positions().col(0);
   // Products: best of 5 (a single one is at the mercy of the machine's noise).
   Eigen::VectorXd z;

@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <cstring>
 #include <numeric>
 #include <sstream>
@@ -49,6 +50,24 @@ constexpr int kMaxHalfPairs = 16;  // half_columns(63) / 2
 // Two doubles as one vector (GCC and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
 // plain pairs elsewhere). The band loops use it where the compiler would not vectorize.
 using Pair = double __attribute__((vector_size(16)));
+
+// The kernels are also built for AVX2 + FMA (x86-64 with GCC), used when the CPU has both;
+// DIGILAP_PLAIN_KERNELS=1 in the environment keeps the plain ones (to compare the two).
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define DIGILAP_WIDE_KERNELS 1
+#else
+#define DIGILAP_WIDE_KERNELS 0
+#endif
+bool cpu_takes_wide_kernels() {
+#if DIGILAP_WIDE_KERNELS
+  const char* plain = std::getenv("DIGILAP_PLAIN_KERNELS");
+  if (plain != nullptr && plain[0] != '\0' && plain[0] != '0') return false;
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+  return false;
+#endif
+}
 constexpr int kLanes = 8;  // sources whose power chains run side by side
 int band_series_order(double x, double gaussian, double epsilon) {
   double term = gaussian * std::exp(x);  // gaussian e^x x^q / q!
@@ -99,6 +118,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
     throw Error(msg.str());
   }
   require_positive("MatrixFreeLaplacian: k", options.k);
+  wide_kernels_ = cpu_takes_wide_kernels();
   const detail::Elements e = detail::gather_elements(contours, measures, options.placement);
   // Each contour's heat time, as the explicit operator takes them; box, delta and the cut scale
   // with sqrt(t_c) together, so box / delta, the Hermite order and the table of whole-box
@@ -374,258 +394,93 @@ void MatrixFreeLaplacian::gauss_transform(const double* f, double* out, const do
                       y ? y + ct.offset : nullptr);
 }
 
+// What the kernels of one contour's product share (see matrix_free_kernels.inc).
+struct MatrixFreeLaplacian::KernelArgs {
+  const MatrixFreeLaplacian& op;
+  const Contour& ct;
+  const double* fc;  // mu x, from the contour's first row
+  double* oc;        // its transform
+  const double* xc;  // with yc, also y = c (out - x (G * mu)), box by box: see gauss_transform
+  double* yc;
+  double* H;  // Hermite moments, boxes x p
+  int p;
+  double inverse_factorial[64];
+  // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
+  void finish(Eigen::Index i0, Eigen::Index i1) const {
+    if (!yc) return;
+    const double* transform_of_mass = op.transform_of_mass_.data() + ct.offset;
+    for (Eigen::Index i = i0; i <= i1; ++i) yc[i] = ct.scale * (oc[i] - xc[i] * transform_of_mass[i]);
+  }
+};
+
+// Each thread's scratch for the target boxes it takes.
+struct MatrixFreeLaplacian::BoxScratch {
+  double local[64];             // Taylor coefficients of the core, in taylor_column order
+  std::vector<double> wrapped;  // a translation matrix computed on the spot
+  std::vector<Pair> forward_rows, backward_rows;  // band moments
+};
+
+#define KERNEL(name) name##_plain
+#include "matrix_free_kernels.inc"
+#undef KERNEL
+#if DIGILAP_WIDE_KERNELS
+#pragma GCC push_options
+#pragma GCC target("avx2,fma")
+#define KERNEL(name) name##_wide
+#include "matrix_free_kernels.inc"
+#undef KERNEL
+#pragma GCC pop_options
+#endif
+
 void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc,
                                             std::vector<double>& box_moments, const double* xc, double* yc) const {
-  // (L x)_i = c [ sum_j G_ij mu_j x_j - x_i sum_j G_ij mu_j ] (the j = i terms cancel).
-  const double* transform_of_mass = transform_of_mass_.data() + ct.offset;
-  auto finish = [&](Eigen::Index i0, Eigen::Index i1) {
-    if (yc)
-      for (Eigen::Index i = i0; i <= i1; ++i) yc[i] = ct.scale * (oc[i] - xc[i] * transform_of_mass[i]);
-  };
-  const int p = order_;
-  double inverse_factorial[64];
-  inverse_factorial[0] = 1;
-  for (int q = 1; q < 64; ++q) inverse_factorial[q] = inverse_factorial[q - 1] / q;
-  const double inv_delta = 1.0 / ct.delta, box = ct.box;
-  {
-    if (ct.direct) {
+  KernelArgs args{*this, ct, fc, oc, xc, yc, nullptr, order_, {}};
+  args.inverse_factorial[0] = 1;
+  for (int q = 1; q < 64; ++q) args.inverse_factorial[q] = args.inverse_factorial[q - 1] / q;
+  if (ct.direct) {
 #pragma omp parallel for schedule(dynamic, 64)
-      for (Eigen::Index i = 0; i < ct.n; ++i) {
-        direct_sums(ct, i, i, fc, oc);
-        finish(i, i);
-      }
-      return;
+    for (Eigen::Index i = 0; i < ct.n; ++i) {
+      direct_sums(ct, i, i, fc, oc);
+      args.finish(i, i);
     }
-    const double* s = s_.data() + ct.offset;
-    const Eigen::Index n = ct.n;
-    // 1. Hermite moments of every box, A_q = sum_j f_j v_j^q / q!, v_j = (s_j - c_k) / delta:
-    // sources in lanes of kLanes, so that the power chains run side by side (vectorized);
-    // the lanes are summed in a fixed order (the same result for any number of threads).
-    box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
-    double* H = box_moments.data();
+    return;
+  }
+  const int p = order_;
+  // 1. Hermite moments of every box.
+  box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
+  args.H = box_moments.data();
+  const bool wide = wide_kernels_;
 #pragma omp parallel for schedule(static)
-    for (Eigen::Index k = 0; k < ct.boxes; ++k) {
-      const double centre = (k + 0.5) * box;
-      double acc[64][kLanes];  // only the p rows used are zeroed (all 64 were 4 KiB a box)
-      std::fill_n(&acc[0][0], static_cast<std::size_t>(p) * kLanes, 0.0);
-      for (Eigen::Index j = ct.box_start[k]; j < ct.box_start[k + 1]; j += kLanes) {
-        const Eigen::Index lanes = std::min<Eigen::Index>(kLanes, ct.box_start[k + 1] - j);
-        double power[kLanes], v[kLanes];
-        for (int l = 0; l < kLanes; ++l) {
-          power[l] = l < lanes ? fc[j + l] : 0.0;
-          v[l] = l < lanes ? (s[j + l] - centre) * inv_delta : 0.0;
-        }
-        for (int q = 0; q < p; ++q)
-          for (int l = 0; l < kLanes; ++l) {
-            acc[q][l] += power[l];
-            power[l] *= v[l];
-          }
-      }
-      for (int q = 0; q < p; ++q) {
-        double sum = 0;
-        for (int l = 0; l < kLanes; ++l) sum += acc[q][l];
-        H[k * p + q] = sum * inverse_factorial[q];
-      }
+  for (Eigen::Index k = 0; k < ct.boxes; ++k) {
+#if DIGILAP_WIDE_KERNELS
+    if (wide) {
+      box_moments_wide(args, k);
+      continue;
     }
-    // 2. Targets box by box.
-    const double P = ct.P;
-    auto for_segments = [&](Eigen::Index a, Eigen::Index b, auto&& segment) {  // unwrapped a..b
-      auto piece = [&](Eigen::Index pa, Eigen::Index pb, double shift) {
-        for (Eigen::Index k = ct.box_of[pa]; k <= ct.box_of[pb]; ++k)
-          if (ct.box_start[k] < ct.box_start[k + 1]) segment(k, shift);
-      };
-      if (a > b) return;
-      if (a < 0) piece(a + n, std::min<Eigen::Index>(b, -1) + n, -P);  // behind the contour's start
-      if (b >= 0 && a <= n - 1) piece(std::max<Eigen::Index>(a, 0), std::min(b, n - 1), 0.0);
-      if (b >= n) piece(std::max(a, n) - n, b - n, P);                  // past its end
-    };
+#endif
+    box_moments_plain(args, k);
+  }
+  // 2. Targets box by box.
 #pragma omp parallel
-    {
-      double local[64];
-      std::vector<double> wrapped_storage(static_cast<std::size_t>(p) * taylor_columns(p));
-      double* t_wrapped = wrapped_storage.data();
-      std::vector<Pair> forward_rows, backward_rows;
-      // Moments sum w_j (2 beta_j)^n / n!, n < q_band (the box's band order), of the sources of
-      // a band, accumulated in the band's order (forward: prefix sums, row r + 1 holds the sum
-      // over its first r + 1 sources, row 0 none) or against it (backward: suffix sums, row r
-      // holds the sum over its sources from r on, row count none). Terms go in pairs (n, n + 1)
-      // as two-lane vectors, rows padded to an even length: the compiler left this scalar, and
-      // it is the hot spot of the product. `pairs` is the pair count as a compile-time
-      // constant (fixed-length loops), or 0 for (q_band + 1) / 2 at run time.
-      auto band_moments = [&](const Band& band, bool prefix, int q_band, auto pairs, std::vector<Pair>& rows) {
-        constexpr int kPairs = decltype(pairs)::value;
-        const int v_count = kPairs > 0 ? kPairs : (q_band + 1) / 2;
-        const Eigen::Index count = band.hi - band.lo + 1;
-        rows.resize(static_cast<std::size_t>(count + 1) * v_count);
-        std::fill_n(rows.data() + (prefix ? 0 : count * v_count), v_count, Pair{0, 0});
-        const double* two_beta = band_two_beta_.data() + band.data;
-        const double* weight = band_weight_.data() + band.data;
-        Pair acc[kMaxBandPairs], factorial[kMaxBandPairs];
-        for (int k = 0; k < v_count; ++k) {
-          acc[k] = Pair{0, 0};
-          factorial[k] = Pair{inverse_factorial[2 * k], 2 * k + 1 < q_band ? inverse_factorial[2 * k + 1] : 0.0};
-        }
-        auto accumulate = [&](auto source) {  // source(v): f of the band's source v
-          for (Eigen::Index r = 0; r < count; ++r) {
-            const Eigen::Index v = prefix ? r : count - 1 - r;
-            const double w = source(v) * weight[v], x = two_beta[v], x2 = x * x;
-            Pair power{w, w * x};  // w x^(2k), w x^(2k+1)
-            const Pair step{x2, x2};
-            Pair* row = rows.data() + static_cast<std::size_t>(prefix ? v + 1 : v) * v_count;
-            for (int k = 0; k < v_count; ++k) {
-              acc[k] += power * factorial[k];
-              row[k] = acc[k];
-              power *= step;
-            }
-          }
-        };
-        if (band.lo >= 0 && band.hi < n) {  // the usual case: no wrap around the contour
-          const double* f_band = fc + band.lo;
-          accumulate([f_band](Eigen::Index v) { return f_band[v]; });
-        } else {
-          accumulate([&](Eigen::Index v) {
-            const Eigen::Index u = band.lo + v;
-            return fc[u < 0 ? u + n : (u >= n ? u - n : u)];
-          });
-        }
-      };
-      // Both bands of target box kt at every target: tau_i sum_q alpha_i^q M_q(i), the powers
-      // of alpha_i in pairs as the moments are.
-      auto add_bands = [&](Eigen::Index kt, auto pairs) {
-        constexpr int kPairs = decltype(pairs)::value;
-        const TargetBox& tb = ct.plan[kt];
-        const int v_count = kPairs > 0 ? kPairs : (tb.band_order + 1) / 2;
-        band_moments(tb.forward, true, tb.band_order, pairs, forward_rows);
-        band_moments(tb.backward, false, tb.band_order, pairs, backward_rows);
-        const Eigen::Index i0 = ct.box_start[kt], count = ct.box_start[kt + 1] - i0;
-        const double* alpha = alpha_.data() + ct.offset + i0;
-        const double* tau_f = tau_forward_.data() + ct.offset + i0;
-        const double* tau_b = tau_backward_.data() + ct.offset + i0;
-        const BandRows* band_rows = band_rows_.data() + ct.offset + i0;
-        double* out_box = oc + i0;
-        for (Eigen::Index i = 0; i < count; ++i) {
-          const Pair* mf = forward_rows.data() + static_cast<std::size_t>(band_rows[i].forward) * v_count;
-          const Pair* mb = backward_rows.data() + static_cast<std::size_t>(band_rows[i].backward) * v_count;
-          const double a = alpha[i];
-          Pair power{1.0, a}, sf{0, 0}, sb{0, 0};
-          const Pair step{a * a, a * a};
-          for (int k = 0; k < v_count; ++k) {
-            sf += mf[k] * power;
-            sb += mb[k] * power;
-            power *= step;
-          }
-          out_box[i] += tau_f[i] * (sf[0] + sf[1]) + tau_b[i] * (sb[0] + sb[1]);
-        }
-      };
+  {
+    BoxScratch scratch;
+    scratch.wrapped.resize(static_cast<std::size_t>(p) * taylor_columns(p));
 #pragma omp for schedule(dynamic, 4)
-      for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
-        const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
-        if (i0 > i1) continue;
-        const TargetBox& tb = ct.plan[kt];
-        if (tb.direct) {
-          direct_sums(ct, i0, i1, fc, oc);
-          finish(i0, i1);
-          continue;
-        }
-        const double centre = (kt + 0.5) * box;
-        // The core's whole boxes: Hermite to Taylor translation about the box centre,
-        // B_m = (-1)^m / m! sum_n A_n h_{n+m}(u0), since d/du h_n = -h_{n+1}.
-        const int columns = taylor_columns(p), half = half_columns(p);
-        for (int m = 0; m < columns; ++m) local[m] = 0;  // in taylor_column order
-        auto computed = [&](double offset) {  // T for a source box `offset` behind the centre
-          translation_matrix(offset * inv_delta, p, t_wrapped);
-          return static_cast<const double*>(t_wrapped);
-        };
-        auto matrix = [&](Eigen::Index d) {  // T for a source box d boxes behind: stored if in reach
-          if (d >= -reach_ && d <= reach_) return translation_.data() + static_cast<std::size_t>(d + reach_) * p * columns;
-          return computed(static_cast<double>(d) * box);
-        };
-        auto add_box = [&](const double* moments, const double* T) {  // local += A T, a row of T at a time
-          for (int q = 0; q < p; ++q) {
-            const double a = moments[q];
-            for (int m = 0; m < columns; ++m) local[m] += a * T[q * columns + m];
-          }
-        };
-        // Boxes kt - d and kt + d in one product: with E_q = A_q(kt - d) + (-1)^q A_q(kt + d)
-        // and O_q = A_q(kt - d) - (-1)^q A_q(kt + d), B_m = sum_q (E_q or O_q, m even or odd) T_d[q][m].
-        // The sums B are held in two-lane vectors, `half_pairs` of them per half (a compile-time
-        // constant, or 0 for half / 2 at run time), so that they stay in registers.
-        auto paired_core = [&](auto half_pairs) {
-          constexpr int kHalfPairs = decltype(half_pairs)::value;
-          const int pairs = kHalfPairs > 0 ? kHalfPairs : half / 2;
-          Pair b[2 * kMaxHalfPairs];  // even columns, then odd ones
-          for (int c = 0; c < 2 * pairs; ++c) b[c] = Pair{0, 0};
-          auto add_row = [&](const double* t, double even, double odd) {  // b += (even | odd) * row t of T
-            const Pair e{even, even}, o{odd, odd};
-            for (int c = 0; c < pairs; ++c) {
-              Pair te, to;
-              std::memcpy(&te, t + 2 * c, sizeof te);
-              std::memcpy(&to, t + half + 2 * c, sizeof to);
-              b[c] += e * te;
-              b[pairs + c] += o * to;
-            }
-          };
-          const Eigen::Index first = tb.core_first_box, last = tb.core_last_box;
-          for (Eigen::Index k = first; k <= last; ++k) {
-            const Eigen::Index d = kt - k, partner = kt + d;
-            if (d < 0 && 2 * kt - k >= first && -d <= reach_) continue;  // taken with its partner
-            const double* T = matrix(d);
-            const double* left = H + k * p;
-            if (d <= 0 || partner > last || d > reach_) {
-              for (int q = 0; q < p; ++q) add_row(T + q * columns, left[q], left[q]);
-              continue;
-            }
-            const double* right = H + partner * p;
-            for (int q = 0; q < p; ++q) {
-              const double signed_right = q % 2 == 0 ? right[q] : -right[q];
-              add_row(T + q * columns, left[q] + signed_right, left[q] - signed_right);
-            }
-          }
-          for (int c = 0; c < pairs; ++c) {
-            std::memcpy(local + 2 * c, &b[c], sizeof b[c]);
-            std::memcpy(local + half + 2 * c, &b[pairs + c], sizeof b[c]);
-          }
-        };
-        if (tb.core_lo >= 0 && tb.core_hi < n) {
-          switch (half / 2) {
-            case 2: paired_core(std::integral_constant<int, 2>{}); break;
-            case 4: paired_core(std::integral_constant<int, 4>{}); break;  // orders 9-16 (epsilon 1e-10: 14)
-            case 6: paired_core(std::integral_constant<int, 6>{}); break;
-            default: paired_core(std::integral_constant<int, 0>{});
-          }
-        } else {  // the core wraps around the contour's start: box by box
-          for_segments(tb.core_lo, tb.core_hi, [&](Eigen::Index k, double shift) {
-            const Eigen::Index d = kt - k;
-            add_box(H + k * p, shift == 0.0 ? matrix(d) : computed(centre - ((k + 0.5) * box + shift)));
-          });
-        }
-        // The core's Taylor expansion at every target of the box: Horner steps in lockstep
-        // across targets (one dependent chain per target otherwise).
-        const Eigen::Index count = i1 - i0 + 1;
-        const double* alpha = alpha_.data() + ct.offset + i0;
-        double* out_box = oc + i0;
-        double coefficient_of[64];  // B_m in the order of m
-        for (int m = 0; m < p; ++m) coefficient_of[m] = local[taylor_column(m, p)];
-        for (Eigen::Index i = 0; i < count; i += kLanes) {  // kLanes targets held in registers
-          double sum[kLanes] = {}, a[kLanes];
-          for (int l = 0; l < kLanes; ++l) a[l] = i + l < count ? alpha[i + l] : 0.0;
-          for (int m = p - 1; m >= 0; --m) {
-            const double coefficient = coefficient_of[m];
-            for (int l = 0; l < kLanes; ++l) sum[l] = sum[l] * a[l] + coefficient;
-          }
-          for (int l = 0; l < kLanes && i + l < count; ++l) out_box[i + l] = sum[l];
-        }
-        // The two bands: each target reads the moments of its part of the band.
-        switch ((tb.band_order + 1) / 2) {
-          case 3: add_bands(kt, std::integral_constant<int, 3>{}); break;  // orders 5, 6: almost every box
-          case 4: add_bands(kt, std::integral_constant<int, 4>{}); break;
-          default: add_bands(kt, std::integral_constant<int, 0>{});
-        }
-        // The few sources a window reaches beyond its bands, or does not reach in the core.
-        for (std::size_t c = tb.corrections_begin; c < tb.corrections_end; ++c)
-          out_box[correction_[c].target] += correction_[c].weight * fc[correction_[c].source];
-        finish(i0, i1);
+    for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
+      const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
+      if (i0 > i1) continue;
+      if (ct.plan[kt].direct) {
+        direct_sums(ct, i0, i1, fc, oc);
+        args.finish(i0, i1);
+        continue;
       }
+#if DIGILAP_WIDE_KERNELS
+      if (wide) {
+        target_box_wide(args, kt, scratch);
+        continue;
+      }
+#endif
+      target_box_plain(args, kt, scratch);
     }
   }
 }

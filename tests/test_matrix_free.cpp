@@ -45,30 +45,40 @@ Pipeline annulus_and_disc() {
   s.mu = measures(s.contours, ii_normals(set, s.contours));
   return s;
 }
+// The product's loops are built twice, plain and for AVX2 + FMA (chosen by the CPU at
+// construction; DIGILAP_PLAIN_KERNELS=1 keeps the plain ones). The agreement tests run both.
+struct KernelChoice {
+  explicit KernelChoice(bool plain) { setenv("DIGILAP_PLAIN_KERNELS", plain ? "1" : "0", 1); }
+  ~KernelChoice() { unsetenv("DIGILAP_PLAIN_KERNELS"); }
+};
 }  // namespace
 
 TEST(MatrixFree, AgreesWithTheExplicitOperatorToEpsilonOnEveryReferenceShape) {
-  for (const auto& name : shape_names()) {
-    auto shape = make_shape(name);
-    for (double h : {0.02, 0.005}) {
-      const Pipeline s = pipeline(*shape, h);
-      for (auto placement : {Placement::Pointels, Placement::Linels}) {
-        HeatLaplacianOptions o;
-        o.placement = placement;
-        const ContourOperator op = heat_laplacian(s.contours, s.mu, o);
-        const MatrixFreeLaplacian mf(s.contours, s.mu, o, 1e-10);
-        ASSERT_EQ(mf.rows(), op.rows());
-        // A smooth function and a rough one: agreement relative to the operator's scale.
-        const Eigen::VectorXd smooth = sample_values(*shape, ambient_x2(), sample_parameters(*shape, op.positions));
-        const Eigen::VectorXd rough = Eigen::VectorXd::Random(op.rows());
-        for (const Eigen::VectorXd& g : {smooth, rough}) {
-          const double scale = op.L.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
-          EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * scale) << name << " h " << h;
+  for (bool plain : {false, true}) {
+    const KernelChoice kernels(plain);
+    for (const auto& name : shape_names()) {
+      auto shape = make_shape(name);
+      for (double h : {0.02, 0.005}) {
+        const Pipeline s = pipeline(*shape, h);
+        for (auto placement : {Placement::Pointels, Placement::Linels}) {
+          HeatLaplacianOptions o;
+          o.placement = placement;
+          const ContourOperator op = heat_laplacian(s.contours, s.mu, o);
+          const MatrixFreeLaplacian mf(s.contours, s.mu, o, 1e-10);
+          ASSERT_EQ(mf.rows(), op.rows());
+          // A smooth function and a rough one: agreement relative to the operator's scale.
+          const Eigen::VectorXd smooth = sample_values(*shape, ambient_x2(), sample_parameters(*shape, op.positions));
+          const Eigen::VectorXd rough = Eigen::VectorXd::Random(op.rows());
+          for (const Eigen::VectorXd& g : {smooth, rough}) {
+            const double scale = op.L.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
+            EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * scale) << name << " h " << h;
+          }
+          EXPECT_LE((mf.diagonal() - Eigen::VectorXd(op.L.diagonal())).cwiseAbs().maxCoeff(),
+                    1e-10 * op.L.diagonal().cwiseAbs().maxCoeff());
+          EXPECT_LE((mf.apply_stiffness(rough) - op.A * rough).cwiseAbs().maxCoeff(),
+                    1e-10 * op.A.diagonal().cwiseAbs().maxCoeff() * rough.cwiseAbs().maxCoeff());
+          if (plain) EXPECT_FALSE(mf.wide_kernels());
         }
-        EXPECT_LE((mf.diagonal() - Eigen::VectorXd(op.L.diagonal())).cwiseAbs().maxCoeff(),
-                  1e-10 * op.L.diagonal().cwiseAbs().maxCoeff());
-        EXPECT_LE((mf.apply_stiffness(rough) - op.A * rough).cwiseAbs().maxCoeff(),
-                  1e-10 * op.A.diagonal().cwiseAbs().maxCoeff() * rough.cwiseAbs().maxCoeff());
       }
     }
   }
@@ -88,23 +98,42 @@ TEST(MatrixFree, WindowEndSeriesAgreesForEveryWindowWidth) {
     const double scale = op.L.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
     EXPECT_LE((mf * g - op.L * g).cwiseAbs().maxCoeff(), 1e-10 * scale) << what;
   };
-  const Pipeline flower = pipeline(AccFlower(), 0.005);
-  for (double k : {1.0, 2.0, 3.0, 10.0})
-    for (double c_t : {0.01, 0.3}) {
+  for (bool plain : {false, true}) {
+    const KernelChoice kernels(plain);
+    const Pipeline flower = pipeline(AccFlower(), 0.005);
+    for (double k : {1.0, 2.0, 3.0, 10.0})
+      for (double c_t : {0.01, 0.3}) {
+        HeatLaplacianOptions o;
+        o.k = k;
+        o.c_t = c_t;
+        o.length_scale = 1.0;  // t = c_t h^(2/3): the window widths this test was written for
+        check(flower.contours, flower.mu, o, "accflower k " + std::to_string(k) + " c_t " + std::to_string(c_t));
+      }
+    // Three contours, with seams.
+    const Pipeline three = annulus_and_disc();
+    ASSERT_EQ(three.contours.contours.size(), 3u);
+    for (auto placement : {Placement::Pointels, Placement::Linels}) {
       HeatLaplacianOptions o;
-      o.k = k;
-      o.c_t = c_t;
-      o.length_scale = 1.0;  // t = c_t h^(2/3): the window widths this test was written for
-      check(flower.contours, flower.mu, o, "accflower k " + std::to_string(k) + " c_t " + std::to_string(c_t));
+      o.placement = placement;
+      check(three.contours, three.mu, o, "annulus and disc");
     }
-  // Three contours, with seams.
-  const Pipeline three = annulus_and_disc();
-  ASSERT_EQ(three.contours.contours.size(), 3u);
-  for (auto placement : {Placement::Pointels, Placement::Linels}) {
-    HeatLaplacianOptions o;
-    o.placement = placement;
-    check(three.contours, three.mu, o, "annulus and disc");
   }
+}
+
+// Both builds of the loops compute the same sums in the same order; they differ only where
+// the wide one fuses a multiply and an add (one rounding instead of two): a few units in the
+// last place of the terms, so 1e-13 of the operator's scale (measured 5e-14 at h = 1e-4).
+TEST(MatrixFree, PlainAndWideKernelsAgree) {
+  const Pipeline s = pipeline(Flower(), 0.002);
+  const MatrixFreeLaplacian mf(s.contours, s.mu);
+  const Eigen::VectorXd g = Eigen::VectorXd::Random(mf.rows());
+  Eigen::VectorXd y[2];
+  for (bool plain : {false, true}) {
+    const KernelChoice kernels(plain);
+    y[plain] = MatrixFreeLaplacian(s.contours, s.mu) * g;
+  }
+  const double scale = mf.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
+  EXPECT_LE((y[0] - y[1]).cwiseAbs().maxCoeff(), 1e-13 * scale);
 }
 
 // Windows about one element wide (k = 0.5): boxes would outnumber the elements, so the

@@ -45,6 +45,10 @@ public:
   int order() const { return order_; }
   /// Largest series order used at the window ends (0 when every contour is summed directly).
   int band_order() const { return band_order_; }
+  /// Whether products run the AVX2 + FMA build of their loops (x86-64 CPUs that have both,
+  /// unless the environment sets DIGILAP_PLAIN_KERNELS=1); results agree with the plain build
+  /// to about 1e-14 of the operator's scale.
+  bool wide_kernels() const { return wide_kernels_; }
   /// Share of the rows whose window is summed term by term (small contours, degenerate boxes).
   double direct_share() const;
   const Eigen::VectorXd& mass() const { return mass_; }
@@ -126,6 +130,15 @@ private:
   // apply_contour() with the given scratch.
   void apply_contour_with(std::size_t c, const double* x, double* y, Scratch& scratch) const;
   void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc, double* oc) const;
+  // contour_transform's work per source box and per target box, built twice: plain and, on
+  // x86-64, for AVX2 + FMA (wide), chosen at construction (lib/matrix_free_kernels.inc).
+  struct KernelArgs;
+  struct BoxScratch;
+  void box_moments_plain(const KernelArgs& a, Eigen::Index k) const;
+  void target_box_plain(const KernelArgs& a, Eigen::Index kt, BoxScratch& scratch) const;
+  void box_moments_wide(const KernelArgs& a, Eigen::Index k) const;
+  void target_box_wide(const KernelArgs& a, Eigen::Index kt, BoxScratch& scratch) const;
+  bool wide_kernels_ = false;
 
   std::vector<Contour> contours_;
   std::vector<Eigen::Index> offset_;
