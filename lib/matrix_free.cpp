@@ -214,7 +214,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   Eigen::VectorXd row_scale(n_all);  // c of each row's contour
   for (const Contour& ct : contours_) row_scale.segment(ct.offset, ct.n).setConstant(ct.scale);
   transform_of_mass_.resize(n_all);
-  gauss_transform(mass_.data(), transform_of_mass_.data());
+  gauss_transform(nullptr, transform_of_mass_.data(), nullptr, scratch_);
   // L_ii = -c sum_{j != i} G(d_ij) mu_j; the transform includes j = i with G(0) = 1.
   diagonal_ = -row_scale.cwiseProduct(transform_of_mass_ - mass_);
 }
@@ -388,10 +388,11 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
   }
 }
 
-void MatrixFreeLaplacian::gauss_transform(const double* f, double* out, const double* x, double* y) const {
+void MatrixFreeLaplacian::gauss_transform(const double* x, double* out, double* y, Scratch& scratch) const {
+  if (x) scratch.weighted.resize(rows());
   for (const Contour& ct : contours_)
-    contour_transform(ct, f + ct.offset, out + ct.offset, scratch_.box_moments, x ? x + ct.offset : nullptr,
-                      y ? y + ct.offset : nullptr);
+    contour_transform(ct, x ? x + ct.offset : nullptr, x ? scratch.weighted.data() + ct.offset : nullptr, out + ct.offset,
+                      scratch.box_moments, y ? y + ct.offset : nullptr);
 }
 
 // What the kernels of one contour's product share (see matrix_free_kernels.inc).
@@ -432,69 +433,74 @@ struct MatrixFreeLaplacian::BoxScratch {
 #pragma GCC pop_options
 #endif
 
-void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* fc, double* oc,
-                                            std::vector<double>& box_moments, const double* xc, double* yc) const {
-  KernelArgs args{*this, ct, fc, oc, xc, yc, nullptr, order_, {}};
+void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc, double* fc, double* oc,
+                                            std::vector<double>& box_moments, double* yc) const {
+  const double* mass = mass_.data() + ct.offset;
+  KernelArgs args{*this, ct, xc ? fc : mass, oc, xc, yc, nullptr, order_, {}};
   args.inverse_factorial[0] = 1;
   for (int q = 1; q < 64; ++q) args.inverse_factorial[q] = args.inverse_factorial[q - 1] / q;
-  if (ct.direct) {
-#pragma omp parallel for schedule(dynamic, 64)
-    for (Eigen::Index i = 0; i < ct.n; ++i) {
-      direct_sums(ct, i, i, fc, oc);
-      args.finish(i, i);
-    }
-    return;
-  }
+  auto weigh = [&](Eigen::Index i0, Eigen::Index i1) {  // f = mu x on rows i0..i1
+    if (xc)
+      for (Eigen::Index i = i0; i <= i1; ++i) fc[i] = mass[i] * xc[i];
+  };
   const int p = order_;
-  // 1. Hermite moments of every box.
-  box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
+  if (!ct.direct) box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
   args.H = box_moments.data();
   const bool wide = wide_kernels_;
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index k = 0; k < ct.boxes; ++k) {
-#if DIGILAP_WIDE_KERNELS
-    if (wide) {
-      box_moments_wide(args, k);
-      continue;
-    }
-#endif
-    box_moments_plain(args, k);
-  }
-  // 2. Targets box by box.
+  // One parallel region, its loops separated by barriers only: on the project's virtual
+  // machine each region's start and end cost a wake-up of the other thread, and a product
+  // of 2-3 ms varied by up to 50% with them.
 #pragma omp parallel
   {
-    BoxScratch scratch;
-    scratch.wrapped.resize(static_cast<std::size_t>(p) * taylor_columns(p));
-#pragma omp for schedule(dynamic, 4)
-    for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
-      const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
-      if (i0 > i1) continue;
-      if (ct.plan[kt].direct) {
-        direct_sums(ct, i0, i1, fc, oc);
-        args.finish(i0, i1);
-        continue;
+    if (ct.direct) {
+#pragma omp for schedule(static)
+      for (Eigen::Index i = 0; i < ct.n; ++i) weigh(i, i);
+#pragma omp for schedule(dynamic, 64)
+      for (Eigen::Index i = 0; i < ct.n; ++i) {
+        direct_sums(ct, i, i, args.fc, oc);
+        args.finish(i, i);
       }
+    } else {
+      // 1. Hermite moments of every box, f weighed box by box on the way.
+#pragma omp for schedule(static)
+      for (Eigen::Index k = 0; k < ct.boxes; ++k) {
+        weigh(ct.box_start[k], ct.box_start[k + 1] - 1);
 #if DIGILAP_WIDE_KERNELS
-      if (wide) {
-        target_box_wide(args, kt, scratch);
-        continue;
-      }
+        if (wide) {
+          box_moments_wide(args, k);
+          continue;
+        }
 #endif
-      target_box_plain(args, kt, scratch);
+        box_moments_plain(args, k);
+      }
+      // 2. Targets box by box (after the barrier: bands and corrections read f of other boxes).
+      BoxScratch scratch;
+      scratch.wrapped.resize(static_cast<std::size_t>(p) * taylor_columns(p));
+#pragma omp for schedule(dynamic, 4)
+      for (Eigen::Index kt = 0; kt < ct.boxes; ++kt) {
+        const Eigen::Index i0 = ct.box_start[kt], i1 = ct.box_start[kt + 1] - 1;
+        if (i0 > i1) continue;
+        if (ct.plan[kt].direct) {
+          direct_sums(ct, i0, i1, args.fc, oc);
+          args.finish(i0, i1);
+          continue;
+        }
+#if DIGILAP_WIDE_KERNELS
+        if (wide) {
+          target_box_wide(args, kt, scratch);
+          continue;
+        }
+#endif
+        target_box_plain(args, kt, scratch);
+      }
     }
   }
 }
 
 void MatrixFreeLaplacian::apply(const double* x, double* y) const {
-  const Eigen::Index n = rows();
   // Scratch kept between products (a fresh 2 N doubles per product were page faults).
-  scratch_.weighted.resize(n);
-  scratch_.transformed.resize(n);
-  double* f = scratch_.weighted.data();
-  double* g = scratch_.transformed.data();
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index i = 0; i < n; ++i) f[i] = mass_[i] * x[i];
-  gauss_transform(f, g, x, y);
+  scratch_.transformed.resize(rows());
+  gauss_transform(x, scratch_.transformed.data(), y, scratch_);
 }
 
 void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
@@ -506,12 +512,7 @@ void MatrixFreeLaplacian::apply_contour_with(std::size_t c, const double* x, dou
   const Contour& ct = contours_[c];
   scratch.weighted.resize(ct.n);
   scratch.transformed.resize(ct.n);
-  double* f = scratch.weighted.data();
-  double* g = scratch.transformed.data();
-  const double* mass = mass_.data() + ct.offset;
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index i = 0; i < ct.n; ++i) f[i] = mass[i] * x[i];
-  contour_transform(ct, f, g, scratch.box_moments, x, y);
+  contour_transform(ct, x, scratch.weighted.data(), scratch.transformed.data(), scratch.box_moments, y);
 }
 
 void MatrixFreeLaplacian::apply_contour_block(std::size_t c, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {

@@ -116,17 +116,18 @@ private:
   // The geometric part of the transform, fixed by the positions: per target box its core and
   // its two bands, with their expansion weights; per target its offset and band factors.
   void plan_contour(Contour& ct, double epsilon);
-  // (G * f)_i over the window of each row i (j = i included), into out.
-  // With x and y given, also y_i = c (out_i - x_i (G * mu)_i), box by box while out is in cache.
-  void gauss_transform(const double* f, double* out, const double* x = nullptr, double* y = nullptr) const;
-  // The same for one contour, f and out pointing at its first row.
   // Scratch of one product: box moments (boxes x order), mu x and its transform.
   struct Scratch {
     std::vector<double> box_moments;
     Eigen::VectorXd weighted, transformed;
   };
-  void contour_transform(const Contour& ct, const double* fc, double* oc, std::vector<double>& box_moments,
-                         const double* xc = nullptr, double* yc = nullptr) const;
+  // (G * f)_i over the window of each row i (j = i included), into out, with f = mu x (into
+  // scratch.weighted) and y_i = c (out_i - x_i (G * mu)_i), box by box while out is in cache;
+  // without x, f = mu and no y. One parallel region per contour.
+  void gauss_transform(const double* x, double* out, double* y, Scratch& scratch) const;
+  // The same for one contour, x, f, out and y pointing at its first row.
+  void contour_transform(const Contour& ct, const double* xc, double* fc, double* oc, std::vector<double>& box_moments,
+                         double* yc) const;
   // apply_contour() with the given scratch.
   void apply_contour_with(std::size_t c, const double* x, double* y, Scratch& scratch) const;
   void direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc, double* oc) const;
