@@ -46,10 +46,11 @@ int hermite_order(double rho, double epsilon) {
 // gaussian e^x x^q / q! / (1 - x / (q + 1)). Returns kMaxBandOrder + 1 when none is.
 constexpr int kMaxBandOrder = 24;
 constexpr int kMaxBandPairs = (kMaxBandOrder + 1) / 2;
-constexpr int kMaxHalfPairs = 16;  // half_columns(63) / 2
+constexpr int kMaxHalfColumns = 32;  // half_columns(63)
 // Two doubles as one vector (GCC and Clang's vector extension: SSE2 on x86-64, NEON on arm64,
 // plain pairs elsewhere). The band loops use it where the compiler would not vectorize.
 using Pair = double __attribute__((vector_size(16)));
+using Quad = double __attribute__((vector_size(32)));
 
 // The kernels are also built for AVX2 + FMA (x86-64 with GCC), used when the CPU has both;
 // DIGILAP_PLAIN_KERNELS=1 in the environment keeps the plain ones (to compare the two).
@@ -422,13 +423,17 @@ struct MatrixFreeLaplacian::BoxScratch {
 };
 
 #define KERNEL(name) name##_plain
+#define KernelVector Pair
 #include "matrix_free_kernels.inc"
+#undef KernelVector
 #undef KERNEL
 #if DIGILAP_WIDE_KERNELS
 #pragma GCC push_options
 #pragma GCC target("avx2,fma")
 #define KERNEL(name) name##_wide
+#define KernelVector Quad
 #include "matrix_free_kernels.inc"
+#undef KernelVector
 #undef KERNEL
 #pragma GCC pop_options
 #endif
