@@ -451,7 +451,15 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc,
   const int p = order_;
   if (!ct.direct) box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
   args.H = box_moments.data();
-  const bool wide = wide_kernels_;
+  // The build of the per-box loops this operator runs, chosen once (wide_kernels_).
+  auto box_moments_of = &MatrixFreeLaplacian::box_moments_plain;
+  auto target_box_of = &MatrixFreeLaplacian::target_box_plain;
+#if DIGILAP_WIDE_KERNELS
+  if (wide_kernels_) {
+    box_moments_of = &MatrixFreeLaplacian::box_moments_wide;
+    target_box_of = &MatrixFreeLaplacian::target_box_wide;
+  }
+#endif
   // One parallel region, its loops separated by barriers only: on the project's virtual
   // machine each region's start and end cost a wake-up of the other thread, and a product
   // of 2-3 ms varied by up to 50% with them.
@@ -470,13 +478,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc,
 #pragma omp for schedule(static)
       for (Eigen::Index k = 0; k < ct.boxes; ++k) {
         weigh(ct.box_start[k], ct.box_start[k + 1] - 1);
-#if DIGILAP_WIDE_KERNELS
-        if (wide) {
-          box_moments_wide(args, k);
-          continue;
-        }
-#endif
-        box_moments_plain(args, k);
+        (this->*box_moments_of)(args, k);
       }
       // 2. Targets box by box (after the barrier: bands and corrections read f of other boxes).
       BoxScratch scratch;
@@ -490,13 +492,7 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc,
           args.finish(i0, i1);
           continue;
         }
-#if DIGILAP_WIDE_KERNELS
-        if (wide) {
-          target_box_wide(args, kt, scratch);
-          continue;
-        }
-#endif
-        target_box_plain(args, kt, scratch);
+        (this->*target_box_of)(args, kt, scratch);
       }
     }
   }

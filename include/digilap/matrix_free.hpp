@@ -20,7 +20,6 @@
 #include <Eigen/Core>
 
 #include <cstdint>
-
 #include <vector>
 
 namespace digilap {
