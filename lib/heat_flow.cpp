@@ -2,11 +2,12 @@
 
 #include "digilap/error.hpp"
 #include "components.hpp"
+#include "core/massless.hpp"
+#include "eigen_checks.hpp"
 
 #include <Eigen/Dense>
 
 #include <cmath>
-#include <sstream>
 
 namespace digilap {
 
@@ -19,15 +20,18 @@ HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt
   for (Eigen::Index i = 0; i < mass.size(); ++i)
     if (!(mass[i] > 0))
       throw Error("HeatFlow: the mass of row " + std::to_string(i) +
-                  " is not > 0 (an element of zero measure has no equation in (A, M)); for contours build the flow from "
-                  "the ContourOperator, which steps such elements with their row of L; elsewhere drop them or use a smaller k_R");
+                  " is not > 0 (an element of zero measure has no equation in (A, M)): build the flow from the operator "
+                  "(HeatFlow(op, dt)), which steps such elements with their row of L");
   factorize(A, mass, scheme);
 }
 
-HeatFlow::HeatFlow(const ContourOperator& op, double dt, TimeScheme scheme) : dt_(dt) {
+HeatFlow::HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme) : dt_(dt) {
   check_step(dt);
-  for (Eigen::Index i = 0; i < op.mass.size(); ++i)
-    if (!(op.mass[i] > 0)) massless_.push_back(i);
+  if (op.A.rows() != op.rows() || op.mass.size() != op.rows())
+    throw Error("HeatFlow: the operator has no stiffness A (assembled with stiffness = false) or no masses");
+  detail::check_masses(op.mass, "HeatFlow");
+  massless_ = op.massless_rows();
+  detail::check_massless_reach_mass(op, massless_, "HeatFlow");
   factorize(op.A, op.mass, scheme);
   if (!massless_.empty()) {
     L_massless_.resize(static_cast<Eigen::Index>(massless_.size()), op.rows());

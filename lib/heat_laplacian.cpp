@@ -28,14 +28,7 @@ constexpr double kPi = 3.14159265358979323846;
 void check_positive(const char* what, double v) { require_positive(std::string("heat_laplacian: ") + what, v); }
 
 void check_memory(std::size_t nnz, std::size_t rows, double limit, bool stiffness) {
-  const double bytes = heat_laplacian_bytes(nnz, rows, stiffness);
-  if (bytes > limit) {
-    std::ostringstream msg;
-    msg << "heat_laplacian: the operator would take about " << bytes / 1e9 << " GB (" << nnz
-        << " nonzeros per matrix, " << rows << " rows), above the memory limit of " << limit / 1e9
-        << " GB; raise memory_limit_bytes, use a coarser h, or a smaller t or k";
-    throw Error(msg.str());
-  }
+  detail::check_operator_memory("heat_laplacian", nnz, rows, limit, stiffness, "use a coarser h, or a smaller t or k");
 }
 
 // Uniform grid of cell size `cut` over the element positions, for the Euclidean neighbours.
@@ -93,12 +86,6 @@ std::pair<std::size_t, std::size_t> ContourOperator::element(Eigen::Index row) c
   return {c, static_cast<std::size_t>(row - row_offset[c])};
 }
 
-double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffness) {
-  // L and A: values (8) + column indices (4) per nonzero, row offsets (4) per row; M: 12 per row;
-  // plus the element arrays (positions, mu, arclength: 32 per row).
-  return (stiffness ? 2.0 : 1.0) * (12.0 * nonzeros + 4.0 * (rows + 1)) + 12.0 * rows + 32.0 * rows;
-}
-
 double heat_time(double h, const HeatLaplacianOptions& options, const Measures& measures) {
   return heat_time(h, options, measures.length_scale);
 }
@@ -116,6 +103,11 @@ double heat_time(double h, const HeatLaplacianOptions& options, double measured_
       throw Error("heat_laplacian: no length scale for the default heat time c_t h^(2/3) l^(4/3): the measures do "
                   "not carry one (they come from ii_normals or exact_normals); give t or length_scale");
     t = options.c_t * std::pow(h, 2.0 / 3.0) * std::pow(l, 4.0 / 3.0);
+  }
+  if (!std::isfinite(t)) {  // c_t h^(2/3) l^(4/3) overflows for an extreme h or l
+    std::ostringstream msg;
+    msg << "heat_laplacian: the default heat time c_t h^(2/3) l^(4/3) is not finite (h = " << h << "): give t, or an h in a usable range";
+    throw Error(msg.str());
   }
   // The kernel's prefactor 1 / (t sqrt(4 pi t)) must be a number (t above about 1e-206).
   if (!std::isfinite(1.0 / (t * std::sqrt(4.0 * kPi * t)))) {
@@ -188,7 +180,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
   ContourOperator op;
   op.placement = options.placement;
   op.t = t;
-  op.contour_t = contour_t;
+  op.part_t = contour_t;
   op.length_scale = options.t != 0 ? 0.0
                     : options.length_scale != 0 ? options.length_scale
                     : per_contour_times(options, measures, contour_t.size()) && !contour_t.empty()

@@ -224,27 +224,30 @@ void save_elements_csv(const ContourOperator& op, const std::string& path) {
   if (!out) throw Error("error while writing '" + path + "' (disk full?)");
 }
 
-std::vector<std::string> save_operator(const ContourOperator& op, const std::string& directory,
-                                       const std::string& prefix, FileFormat format) {
+std::vector<std::string> save_operator(const HeatOperator& op, const std::string& directory, const std::string& prefix,
+                                       FileFormat format) {
   std::error_code ec;
   std::filesystem::create_directories(directory, ec);
   if (ec) throw Error("cannot create directory '" + directory + "': " + ec.message());
   const std::filesystem::path dir(directory);
   const bool npz = format == FileFormat::Npz;
-  const std::string matrix = npz ? ".npz" : ".mtx";
-  std::vector<std::string> paths = {(dir / (prefix + "L" + matrix)).string(), (dir / (prefix + "A" + matrix)).string(),
-                                    (dir / (prefix + "M" + matrix)).string(),
-                                    (dir / (prefix + (npz ? "elements.npz" : "elements.csv"))).string()};
-  if (op.A.rows() == 0) paths.erase(paths.begin() + 1);  // assembled without the stiffness
-  const SparseMatrix* matrices[3] = {&op.L, &op.A, &op.M};
-  std::size_t k = 0;
-  for (const SparseMatrix* m : matrices) {
-    if (m->rows() == 0) continue;
-    if (npz) save_npz(*m, paths[k++]);
-    else save_matrix_market(*m, paths[k++]);
+  std::vector<std::string> paths;
+  for (const auto& [name, m] : {std::pair<const char*, const SparseMatrix*>{"L", &op.L}, {"A", &op.A}, {"M", &op.M}}) {
+    if (m->rows() == 0) continue;  // A: assembled without the stiffness
+    paths.push_back((dir / (prefix + name + (npz ? ".npz" : ".mtx"))).string());
+    if (npz) save_npz(*m, paths.back());
+    else save_matrix_market(*m, paths.back());
   }
-  if (npz) save_elements_npz(op, paths[k]);
-  else save_elements_csv(op, paths[k]);
+  return paths;
+}
+
+std::vector<std::string> save_operator(const ContourOperator& op, const std::string& directory,
+                                       const std::string& prefix, FileFormat format) {
+  std::vector<std::string> paths = save_operator(static_cast<const HeatOperator&>(op), directory, prefix, format);
+  const bool npz = format == FileFormat::Npz;
+  paths.push_back((std::filesystem::path(directory) / (prefix + (npz ? "elements.npz" : "elements.csv"))).string());
+  if (npz) save_elements_npz(op, paths.back());
+  else save_elements_csv(op, paths.back());
   return paths;
 }
 

@@ -18,6 +18,12 @@ void check_tau(double tau, int steps) {
   }
 }
 
+Eigen::MatrixXd advance_columns(const HeatFlow& flow, const Eigen::MatrixXd& f, int steps) {
+  Eigen::MatrixXd out(f.rows(), f.cols());
+  for (Eigen::Index k = 0; k < f.cols(); ++k) out.col(k) = flow.advance(f.col(k), steps);
+  return out;
+}
+
 Eigen::Vector2d centroid(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index b) {
   return p.middleRows(a, b - a).colwise().mean().transpose();
 }
@@ -26,13 +32,16 @@ Eigen::Vector2d centroid(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index
 Eigen::MatrixXd smooth(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::MatrixXd& f, double tau, int steps) {
   check_tau(tau, steps);
   if (f.rows() != mass.size()) throw Error("smooth: the functions have " + std::to_string(f.rows()) + " rows, the operator " + std::to_string(mass.size()));
-  const HeatFlow flow(A, mass, tau / steps, TimeScheme::ImplicitEuler);
-  Eigen::MatrixXd out(f.rows(), f.cols());
-  for (Eigen::Index k = 0; k < f.cols(); ++k) out.col(k) = flow.advance(f.col(k), steps);
-  return out;
+  return advance_columns(HeatFlow(A, mass, tau / steps, TimeScheme::ImplicitEuler), f, steps);
 }
 
-Eigen::VectorXd smooth_function(const ContourOperator& op, const Eigen::VectorXd& f, double tau, int steps) {
+Eigen::MatrixXd smooth(const HeatOperator& op, const Eigen::MatrixXd& f, double tau, int steps) {
+  check_tau(tau, steps);
+  if (f.rows() != op.rows()) throw Error("smooth: the functions have " + std::to_string(f.rows()) + " rows, the operator " + std::to_string(op.rows()));
+  return advance_columns(HeatFlow(op, tau / steps, TimeScheme::ImplicitEuler), f, steps);
+}
+
+Eigen::VectorXd smooth_function(const HeatOperator& op, const Eigen::VectorXd& f, double tau, int steps) {
   check_tau(tau, steps);
   if (f.size() != op.rows()) throw Error("smooth_function: the function has the wrong size");
   return HeatFlow(op, tau / steps, TimeScheme::ImplicitEuler).advance(f, steps);

@@ -2,6 +2,7 @@
 
 #include "digilap/error.hpp"
 #include "components.hpp"
+#include "core/massless.hpp"
 #include "eigen_checks.hpp"
 #include "lobpcg.hpp"
 #include "spectrum_parts.hpp"
@@ -137,11 +138,20 @@ SparseMatrix part_of(const SparseMatrix& A, const std::vector<Eigen::Index>& row
 }
 
 // Spectra's shift-and-invert Lanczos for the `count` smallest eigenpairs of one part.
+// The order of the first non-zero eigenvalue, as 2 pi / (sum mu)^(1/d) squared: (2 pi / P)^2 on
+// a closed curve of length P, 4 pi / area times pi on a surface (the unit sphere's is 2 against
+// pi), so that shifts and margins scale with the spectrum whatever the units of mu.
+double first_eigenvalue_root(const Eigen::VectorXd& mass, int dimension) {
+  const double S = mass.sum();
+  return 2 * kPi / (dimension == 1 ? S : std::pow(S, 1.0 / dimension));
+}
+
 Spectrum lanczos(ShiftInvertOp& op, const Eigen::VectorXd& mass, int count, const SpectrumOptions& o) {
   const Eigen::Index n = mass.size();
-  // A shift just below 0: -A - sigma M is then definite, and the eigenvalue 0 of each contour
-  // stays well separated from the shift relative to the first non-zero one (about (2 pi / P)^2).
-  const double sigma = -1e-2 * (2 * kPi / mass.sum()) * (2 * kPi / mass.sum());
+  // A shift just below 0: -A - sigma M is then definite, and the eigenvalue 0 of each part stays
+  // well separated from the shift relative to the first non-zero one.
+  const double root = first_eigenvalue_root(mass, o.dimension);
+  const double sigma = -1e-2 * root * root;
   const int ncv = static_cast<int>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(2 * count + 1, 20)));
   if (ncv <= count)
     throw Error("smallest_eigenpairs: the subspace size must exceed count");
@@ -230,7 +240,7 @@ Spectrum connected_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, 
   // path below takes at least two, the shift and the inertia check). Surfaces converge in 21-34
   // iterations from h = 0.1 to 0.02; fine curves would need hundreds and are factorized.
   std::unique_ptr<ShiftInvertOp> op;
-  if (o.method == SpectrumMethod::Products) {
+  if (o.method == SpectrumMethod::Products || (o.method == SpectrumMethod::Auto && o.dimension >= 2)) {
     if (Spectrum s; lobpcg_spectrum(A, mass, count, o, std::numeric_limits<double>::infinity(), s)) return s;
     op = std::make_unique<ShiftInvertOp>(A, mass);
   } else {
@@ -243,7 +253,7 @@ Spectrum connected_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, 
     Spectrum s = lanczos(*op, mass, asked, o);
     // Just above the count-th eigenvalue (far above Lanczos's accuracy, far below the splits
     // of the pairs of a closed curve), relative to the first non-zero scale (2 pi / P)^2.
-    const double scale = std::pow(2 * kPi / mass.sum(), 2);
+    const double scale = std::pow(first_eigenvalue_root(mass, o.dimension), 2);
     const double sigma = s.eigenvalues[count - 1] + 1e-8 * std::max(s.eigenvalues[count - 1], scale);
     const Eigen::Index returned = (s.eigenvalues.array() < sigma).count();
     const Eigen::Index below = op->eigenvalues_below(sigma);
@@ -299,64 +309,192 @@ void check_sizes(const SparseMatrix& A, const Eigen::VectorXd& mass) {
                 " but there are " + std::to_string(mass.size()) + " masses");
 }
 
+// The support of mu: the rows with mass, and the index of each row in it (-1 off it).
+struct Support {
+  std::vector<Eigen::Index> rows;
+  std::vector<Eigen::Index> local;
+  bool whole() const { return rows.size() == local.size(); }
+  Eigen::Index massless() const { return static_cast<Eigen::Index>(local.size() - rows.size()); }
+};
+
+Support support_of(const Eigen::VectorXd& mass) {
+  detail::check_masses(mass);
+  Support s;
+  s.local.assign(static_cast<std::size_t>(mass.size()), -1);
+  for (Eigen::Index i = 0; i < mass.size(); ++i)
+    if (mass[i] > 0) s.local[i] = static_cast<Eigen::Index>(s.rows.size()), s.rows.push_back(i);
+  return s;
+}
+
+// The rows and columns of A on the support, renumbered (columns stay ascending).
+SparseMatrix restricted(const SparseMatrix& A, const Support& support) {
+  const auto n = static_cast<Eigen::Index>(support.rows.size());
+  Eigen::Index nonzeros = 0;
+  for (Eigen::Index r : support.rows)
+    for (int e = A.outerIndexPtr()[r]; e < A.outerIndexPtr()[r + 1]; ++e) nonzeros += support.local[A.innerIndexPtr()[e]] >= 0;
+  SparseMatrix out(n, n);
+  out.resizeNonZeros(nonzeros);
+  out.outerIndexPtr()[0] = 0;
+  Eigen::Index k = 0;
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const Eigen::Index row = support.rows[r];
+    for (int e = A.outerIndexPtr()[row]; e < A.outerIndexPtr()[row + 1]; ++e) {
+      const Eigen::Index c = support.local[A.innerIndexPtr()[e]];
+      if (c < 0) continue;
+      out.innerIndexPtr()[k] = static_cast<int>(c);
+      out.valuePtr()[k++] = A.valuePtr()[e];
+    }
+    out.outerIndexPtr()[r + 1] = static_cast<int>(k);
+  }
+  return out;
+}
+
+Eigen::VectorXd restricted(const Eigen::VectorXd& v, const Support& support) {
+  Eigen::VectorXd out(static_cast<Eigen::Index>(support.rows.size()));
+  for (std::size_t r = 0; r < support.rows.size(); ++r) out[static_cast<Eigen::Index>(r)] = v[support.rows[r]];
+  return out;
+}
+
+// Eigenvectors on the support put back on every row (0 off the support).
+void embed(Spectrum& s, const Support& support) {
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(support.local.size()), s.eigenvectors.cols());
+  for (std::size_t r = 0; r < support.rows.size(); ++r) full.row(support.rows[r]) = s.eigenvectors.row(static_cast<Eigen::Index>(r));
+  s.eigenvectors = std::move(full);
+  s.massless = support.massless();
+}
+
+// The spectrum of (A, mass), with support.rows all the rows (no restriction) or not.
+Spectrum spectrum_on_support(const SparseMatrix& A, const Eigen::VectorXd& mass, const Support& support, const SpectrumOptions& o) {
+  detail::check_count(static_cast<Eigen::Index>(support.rows.size()), support.massless(), o.count);
+  auto solve = [&](const SparseMatrix& a, const Eigen::VectorXd& m) {
+    // Part by part: the connected components of A (one per contour in geodesic mode).
+    const auto parts = solve_parts(a, m, detail::connected_components(a).rows,
+                                   [&](std::size_t rows) { return static_cast<int>(std::min<std::size_t>(o.count, rows)); }, o);
+    return detail::merge_parts(parts, m.size(), o.count);
+  };
+  if (support.whole()) return solve(A, mass);
+  Spectrum s = solve(restricted(A, support), restricted(mass, support));
+  embed(s, support);
+  return s;
+}
+
+// Each zero-mass row of the columns of `vectors` (on the operator's rows) set to the heat-kernel
+// average of its neighbours: u_i = sum_{j != i} L_ij u_j / (-L_ii), where every L_ij != 0 has
+// mass (L_ij = w_ij mu_j), so the order of the rows does not matter.
+void fill_massless(const HeatOperator& op, const std::vector<Eigen::Index>& massless, Eigen::MatrixXd& vectors) {
+  for (Eigen::Index i : massless) {
+    Eigen::RowVectorXd sum = Eigen::RowVectorXd::Zero(vectors.cols());
+    double diagonal = 0;
+    for (SparseMatrix::InnerIterator it(op.L, i); it; ++it) {
+      if (it.col() == i) diagonal = it.value();
+      else sum += it.value() * vectors.row(it.col());
+    }
+    vectors.row(i) = sum / -diagonal;
+  }
+}
+
+void require_stiffness(const HeatOperator& op, const char* who) {
+  if (op.A.rows() != op.rows() || op.mass.size() != op.rows())
+    throw Error(std::string(who) + ": the operator has no stiffness A (assembled with stiffness = false) or no masses");
+}
+
 }  // namespace
 
 Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& o) {
   check_sizes(A, mass);
-  detail::check_eigen_request(mass, o.count);
-  // Part by part: the connected components of A (one per contour in geodesic mode).
-  const auto parts = solve_parts(A, mass, detail::connected_components(A).rows,
-                                 [&](std::size_t rows) { return static_cast<int>(std::min<std::size_t>(o.count, rows)); }, o);
-  return detail::merge_parts(parts, mass.size(), o.count);
+  return spectrum_on_support(A, mass, support_of(mass), o);
 }
 
-std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& o) {
-  check_sizes(op.A, op.mass);
-  if (o.count < 1) throw Error("smallest_eigenpairs_per_contour: count must be >= 1, got " + std::to_string(o.count));
-  detail::check_eigen_request(op.mass, 1);  // masses > 0
-  const detail::Components components = detail::connected_components(op.A);
-  std::vector<std::vector<Eigen::Index>> rows_of_part;  // the components, grouped by contour
-  std::vector<std::size_t> contour_of_part;
-  for (std::size_t c = 0; c + 1 < op.row_offset.size(); ++c) {
-    for (Eigen::Index r = op.row_offset[c]; r < op.row_offset[c + 1]; ++r) {
+Spectrum smallest_eigenpairs(const HeatOperator& op, const SpectrumOptions& options) {
+  require_stiffness(op, "smallest_eigenpairs");
+  SpectrumOptions o = options;
+  o.dimension = op.dimension;
+  const Support support = support_of(op.mass);
+  const std::vector<Eigen::Index> massless = op.massless_rows();
+  detail::check_massless_reach_mass(op, massless, "smallest_eigenpairs");
+  Spectrum s = spectrum_on_support(op.A, op.mass, support, o);
+  if (!massless.empty()) {
+    fill_massless(op, massless, s.eigenvectors);
+    detail::fix_signs(s.eigenvectors);
+  }
+  if (op.t <= 0) return s;
+  // Per part when their times differ (geodesic: each eigenvector lives on one contour; with
+  // the Euclidean distance all contours share one t).
+  std::vector<double> part_t(op.parts());
+  for (std::size_t p = 0; p < part_t.size(); ++p) part_t[p] = op.time_of_part(p);
+  if (part_t.empty()) {  // an operator built by hand
+    const std::vector<Eigen::Index> whole{0, op.rows()};
+    detail::laplace_beltrami_by_contour(s, whole, {op.t});
+  } else {
+    detail::laplace_beltrami_by_contour(s, op.row_offset, part_t);
+  }
+  return s;
+}
+
+std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const SpectrumOptions& options) {
+  require_stiffness(op, "smallest_eigenpairs_per_part");
+  if (options.count < 1) throw Error("smallest_eigenpairs_per_part: count must be >= 1, got " + std::to_string(options.count));
+  SpectrumOptions o = options;
+  o.dimension = op.dimension;
+  const Support support = support_of(op.mass);
+  const std::vector<Eigen::Index> massless = op.massless_rows();
+  detail::check_massless_reach_mass(op, massless, "smallest_eigenpairs_per_part");
+  std::vector<Eigen::Index> offset = op.row_offset;  // the parts' rows, on the support
+  if (offset.empty()) offset = {0, op.rows()};
+  const std::size_t part_count = offset.size() - 1;
+  std::vector<Eigen::Index> support_offset(offset.size(), 0);
+  for (std::size_t p = 0; p < part_count; ++p) {
+    Eigen::Index with_mass = 0;
+    for (Eigen::Index r = offset[p]; r < offset[p + 1]; ++r) with_mass += support.local[r] >= 0;
+    support_offset[p + 1] = support_offset[p] + with_mass;
+  }
+  const SparseMatrix A = support.whole() ? SparseMatrix() : restricted(op.A, support);
+  const SparseMatrix& a = support.whole() ? op.A : A;
+  const Eigen::VectorXd mass = restricted(op.mass, support);
+  const detail::Components components = detail::connected_components(a);
+  std::vector<std::vector<Eigen::Index>> rows_of_part;  // the components, grouped by part
+  std::vector<std::size_t> part_of_component;
+  for (std::size_t p = 0; p < part_count; ++p) {
+    for (Eigen::Index r = support_offset[p]; r < support_offset[p + 1]; ++r) {
       const auto& rows = components.rows[components.of_row[r]];
-      if (rows.front() < op.row_offset[c] || rows.back() >= op.row_offset[c + 1])
-        throw Error("smallest_eigenpairs_per_contour: contour " + std::to_string(c) +
-                    " interacts with another one (Euclidean distance): a spectrum per contour needs the geodesic operator");
+      if (rows.front() < support_offset[p] || rows.back() >= support_offset[p + 1])
+        throw Error("smallest_eigenpairs_per_part: part " + std::to_string(p) +
+                    " interacts with another one (contours at the Euclidean distance): a spectrum per part needs parts "
+                    "that do not (the geodesic operator)");
       if (rows.front() == r) {
         rows_of_part.push_back(rows);
-        contour_of_part.push_back(c);
+        part_of_component.push_back(p);
       }
     }
   }
-  const auto parts = solve_parts(op.A, op.mass, std::move(rows_of_part),
+  const auto parts = solve_parts(a, mass, std::move(rows_of_part),
                                  [&](std::size_t rows) { return static_cast<int>(std::min<std::size_t>(o.count, rows)); }, o);
   std::vector<Spectrum> spectra;
-  for (std::size_t c = 0; c + 1 < op.row_offset.size(); ++c) {
-    std::vector<detail::SpectrumPart> of_contour;
-    for (std::size_t p = 0; p < parts.size(); ++p)
-      if (contour_of_part[p] == c) {
-        of_contour.push_back(parts[p]);
-        for (Eigen::Index& r : of_contour.back().rows) r -= op.row_offset[c];
+  for (std::size_t p = 0; p < part_count; ++p) {
+    std::vector<detail::SpectrumPart> of_part;
+    for (std::size_t c = 0; c < parts.size(); ++c)
+      if (part_of_component[c] == p) {
+        of_part.push_back(parts[c]);
+        for (Eigen::Index& r : of_part.back().rows) r -= support_offset[p];
       }
-    const Eigen::Index n = op.row_offset[c + 1] - op.row_offset[c];
-    spectra.push_back(detail::merge_parts(of_contour, n, static_cast<int>(std::min<Eigen::Index>(o.count, n))));
-    const double t_c = op.contour_t.size() + 1 == op.row_offset.size() ? op.contour_t[c] : op.t;
-    if (t_c > 0)
-      spectra.back().laplace_beltrami =
-          laplace_beltrami_eigenvalues(spectra.back().eigenvalues, t_c, &spectra.back().undefined_estimates);
+    const Eigen::Index n = support_offset[p + 1] - support_offset[p], rows = offset[p + 1] - offset[p];
+    Spectrum s = detail::merge_parts(of_part, n, static_cast<int>(std::min<Eigen::Index>(o.count, n)));
+    if (n < rows) {  // back on the part's own rows, zero-mass rows from their row of L
+      Eigen::MatrixXd full = Eigen::MatrixXd::Zero(op.rows(), s.eigenvectors.cols());
+      for (Eigen::Index r = 0; r < n; ++r) full.row(support.rows[support_offset[p] + r]) = s.eigenvectors.row(r);
+      std::vector<Eigen::Index> own_massless;
+      for (Eigen::Index i : massless)
+        if (i >= offset[p] && i < offset[p + 1]) own_massless.push_back(i);
+      fill_massless(op, own_massless, full);
+      s.eigenvectors = full.middleRows(offset[p], rows);
+      s.massless = rows - n;
+      detail::fix_signs(s.eigenvectors);
+    }
+    const double t_p = op.time_of_part(p);
+    if (t_p > 0) s.laplace_beltrami = laplace_beltrami_eigenvalues(s.eigenvalues, t_p, &s.undefined_estimates);
+    spectra.push_back(std::move(s));
   }
   return spectra;
-}
-
-Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options) {
-  Spectrum s = smallest_eigenpairs(op.A, op.mass, options);
-  if (op.t <= 0) return s;
-  // Per contour when their times differ (geodesic: each eigenvector lives on one contour; with
-  // the Euclidean distance all contours share one t).
-  const std::vector<double> one_t(op.row_offset.size() - 1, op.t);  // an operator built by hand
-  detail::laplace_beltrami_by_contour(s, op.row_offset, op.contour_t.size() + 1 == op.row_offset.size() ? op.contour_t : one_t);
-  return s;
 }
 
 }  // namespace digilap

@@ -228,17 +228,31 @@ PYBIND11_MODULE(_digilap, m) {
         py::arg("set"), py::arg("contours"), Release(), "The shape's length scale l (a robust small radius of curvature).");
 
   // --- The operator ---------------------------------------------------------------------------
-  py::class_<ContourOperator, std::shared_ptr<ContourOperator>>(
-      m, "ContourOperator",
-      "The heat-kernel Laplacian: L (approximates +Laplace-Beltrami, negative semidefinite), A = M L "
-      "(symmetric), M = diag(mu), all scipy.sparse.csr_matrix views on the operator's memory.")
-      .def_property_readonly("L", [](py::object self) { return csr_view(self.cast<ContourOperator&>().L, self); })
-      .def_property_readonly("A", [](py::object self) { return csr_view(self.cast<ContourOperator&>().A, self); })
-      .def_property_readonly("M", [](py::object self) { return csr_view(self.cast<ContourOperator&>().M, self); })
+  py::class_<HeatOperator, std::shared_ptr<HeatOperator>>(
+      m, "HeatOperator",
+      "What every operator is, curves (dimension 1) and surfaces (2): L (approximates +Laplace-Beltrami, negative "
+      "semidefinite), A = M L (symmetric), M = diag(mu), all scipy.sparse.csr_matrix views on the operator's memory; "
+      "rows grouped in parts (contours, surfaces) by row_offset. Zero-mass rows are off the support of mu: spectra and "
+      "heat flow give them the average of their neighbours (their row of L).")
+      .def_property_readonly("L", [](py::object self) { return csr_view(self.cast<HeatOperator&>().L, self); })
+      .def_property_readonly("A", [](py::object self) { return csr_view(self.cast<HeatOperator&>().A, self); })
+      .def_property_readonly("M", [](py::object self) { return csr_view(self.cast<HeatOperator&>().M, self); })
       .def_property_readonly("mass", [](py::object self) {
-        const auto& op = self.cast<ContourOperator&>();
+        const auto& op = self.cast<HeatOperator&>();
         return view(op.mass.data(), {op.mass.size()}, self);
       })
+      .def_readonly("dimension", &HeatOperator::dimension)
+      .def_readonly("t", &HeatOperator::t)
+      .def_readonly("part_t", &HeatOperator::part_t)
+      .def_readonly("cut", &HeatOperator::cut)
+      .def_readonly("length_scale", &HeatOperator::length_scale)
+      .def_property_readonly("row_offset", [](const HeatOperator& op) { return op.row_offset; })
+      .def("massless_rows", &HeatOperator::massless_rows, "Rows of zero mass (off the support of mu).")
+      .def("rows", &HeatOperator::rows);
+  py::class_<ContourOperator, HeatOperator, std::shared_ptr<ContourOperator>>(
+      m, "ContourOperator",
+      "The operator on the elements of contours (a HeatOperator of dimension 1; parts = contours), with positions, "
+      "arclength and contour lengths.")
       .def_property_readonly("arclength", [](py::object self) {
         const auto& op = self.cast<ContourOperator&>();
         return view(op.arclength.data(), {op.arclength.size()}, self);
@@ -248,13 +262,8 @@ PYBIND11_MODULE(_digilap, m) {
         py::array a = view(op.positions.data(), {2, op.positions.rows()}, self);
         return py::object(a.attr("T"));
       })
-      .def_property_readonly("row_offset", [](const ContourOperator& op) { return op.row_offset; })
       .def_readonly("contour_length", &ContourOperator::contour_length)
-      .def_readonly("t", &ContourOperator::t)
-      .def_readonly("contour_t", &ContourOperator::contour_t)
-      .def_readonly("cut", &ContourOperator::cut)
-      .def_readonly("length_scale", &ContourOperator::length_scale)
-      .def("rows", &ContourOperator::rows);
+      .def_readonly("contour_t", &ContourOperator::part_t, "The heat time of each contour (part_t).");
   m.def("heat_laplacian", [](const ContourSet& c, const Measures& mu, double t, double c_t, double k, const std::string& d,
                              const std::string& p, bool richardson, bool stiffness, double length_scale, double memory_limit,
                              bool per_contour_time) {
@@ -284,12 +293,16 @@ PYBIND11_MODULE(_digilap, m) {
       .def_readonly("laplace_beltrami", &Spectrum::laplace_beltrami)
       .def_readonly("eigenvectors", &Spectrum::eigenvectors)
       .def_readonly("iterations", &Spectrum::iterations)
+      .def_readonly("massless", &Spectrum::massless, "Rows of zero mass (off the support of mu).")
       .def_readonly("undefined_estimates", &Spectrum::undefined_estimates);
-  m.def("smallest_eigenpairs", [](const ContourOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs (every copy of repeated ones).");
-  m.def("smallest_eigenpairs_per_contour",
-        [](const ContourOperator& op, int count) { return smallest_eigenpairs_per_contour(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each contour on its own.");
+  m.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(),
+        "The count smallest eigenpairs of (-A, M) on the support of mu (every copy of repeated ones), with the\n"
+        "Laplace-Beltrami estimates; curves and surfaces alike.");
+  m.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each part (contour, surface) on its own.");
+  m.def("smallest_eigenpairs_per_contour", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each contour on its own (smallest_eigenpairs_per_part).");
   py::class_<MatrixFreeLaplacian, std::shared_ptr<MatrixFreeLaplacian>>(
       m, "MatrixFreeLaplacian", "L applied without storing it (geodesic mode, 1D fast Gauss transform to epsilon).")
       .def(py::init([](const ContourSet& c, const Measures& mu, double t, double c_t, double k, double epsilon) {
@@ -312,14 +325,14 @@ PYBIND11_MODULE(_digilap, m) {
       .def("smallest_eigenpairs", [](const MatrixFreeLaplacian& op, int count) { return smallest_eigenpairs(op, {count}); },
            py::arg("count") = 10, Release(), "The count smallest eigenpairs (preconditioned LOBPCG per contour).");
   py::enum_<TimeScheme>(m, "TimeScheme").value("implicit_euler", TimeScheme::ImplicitEuler).value("crank_nicolson", TimeScheme::CrankNicolson);
-  py::class_<HeatFlow>(m, "HeatFlow", "Heat diffusion du/dtau = L u, factorized once; conserves each contour's heat.")
-      .def(py::init([](const ContourOperator& op, double dt, TimeScheme s) {
+  py::class_<HeatFlow>(m, "HeatFlow", "Heat diffusion du/dtau = L u on any operator, factorized once; conserves each part's heat.")
+      .def(py::init([](const HeatOperator& op, double dt, TimeScheme s) {
              py::gil_scoped_release release;
              return std::make_unique<HeatFlow>(op, dt, s);
            }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson)
       .def("step", &HeatFlow::step, py::arg("u"), Release())
       .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
-  m.def("smooth_function", &smooth_function, py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
+  m.def("smooth_function", py::overload_cast<const HeatOperator&, const Eigen::VectorXd&, double, int>(&smooth_function), py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
         "f after heat diffusion for a time tau (implicit Euler steps).");
   m.def("smooth_positions", [](const ContourOperator& op, double tau, int steps, bool preserve_area) {
         ContourSmoothingOptions o;
@@ -356,9 +369,17 @@ PYBIND11_MODULE(_digilap, m) {
   m.def("save_operator", [](const ContourOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
         if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
         py::gil_scoped_release release;
-        return save_operator(op, dir, prefix, format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket);
+        const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
+        return save_operator(op, dir, prefix, f);
       }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
       "Writes L, A, M and the element table (Matrix Market + CSV, or .npz).");
+  m.def("save_operator", [](const HeatOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
+        if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
+        py::gil_scoped_release release;
+        const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
+        return save_operator(op, dir, prefix, f);
+      }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
+      "Writes L, A and M of any operator (Matrix Market, or .npz).");
   // --- Surfaces (SPEC §7): the submodule digilap.surface --------------------------------------
   py::module_ s = m.def_submodule("surface", "Digital surfaces in 3D: the same operator on the surfels of a voxel set.");
   py::class_<surface::Surface, std::shared_ptr<surface::Surface>>(s, "Surface", "A closed surface with exact geometry.")
@@ -407,19 +428,10 @@ PYBIND11_MODULE(_digilap, m) {
       .def_readonly("length_scale", &surface::SurfelMeasures::length_scale)
       .def("total_area", &surface::SurfelMeasures::total_area);
   s.def("measures", &surface::measures, py::arg("surfels"), py::arg("normals"), Release(), "Surfel areas mu = h^2 max(0, <n, n_e>).");
-  py::class_<surface::SurfaceOperator, std::shared_ptr<surface::SurfaceOperator>>(
-      s, "SurfaceOperator", "L, A = M L, M as scipy.sparse.csr_matrix views; positions N x 3.")
-      .def_property_readonly("L", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().L, self); })
-      .def_property_readonly("A", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().A, self); })
-      .def_property_readonly("M", [](py::object self) { return csr_view(self.cast<surface::SurfaceOperator&>().M, self); })
-      .def_property_readonly("mass", [](py::object self) {
-        const auto& op = self.cast<surface::SurfaceOperator&>();
-        return view(op.mass.data(), {op.mass.size()}, self);
-      })
-      .def_readonly("positions", &surface::SurfaceOperator::positions)
-      .def_readonly("t", &surface::SurfaceOperator::t)
-      .def_readonly("cut", &surface::SurfaceOperator::cut)
-      .def("rows", &surface::SurfaceOperator::rows);
+  py::class_<surface::SurfaceOperator, HeatOperator, std::shared_ptr<surface::SurfaceOperator>>(
+      s, "SurfaceOperator", "The operator on surfels (a HeatOperator of dimension 2): L, A = M L, M as scipy.sparse.csr_matrix "
+      "views; positions N x 3.")
+      .def_readonly("positions", &surface::SurfaceOperator::positions);
   s.def("heat_laplacian", [](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
                              double length_scale, double memory_limit) {
         HeatLaplacianOptions o;
@@ -429,13 +441,9 @@ PYBIND11_MODULE(_digilap, m) {
       py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0,
       py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
       "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j.");
-  s.def("smallest_eigenpairs", [](const surface::SurfaceOperator& op, int count) {
-        SpectrumOptions o;
-        o.count = count, o.method = SpectrumMethod::Products;  // a surface's factorization fills in
-        Spectrum sp = smallest_eigenpairs(op.A, op.mass, o);
-        sp.laplace_beltrami = laplace_beltrami_eigenvalues(sp.eigenvalues, op.t, &sp.undefined_estimates);
-        return sp;
-      }, py::arg("op"), py::arg("count") = 10, Release(), "The count smallest eigenpairs of (-A, M), with Laplace-Beltrami estimates.");
+  s.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(),
+        "The count smallest eigenpairs of (-A, M) on the support of mu, with Laplace-Beltrami estimates (digilap.smallest_eigenpairs).");
   s.def("smooth_positions", [](const surface::SurfaceOperator& op, double tau, int steps, bool preserve_size) {
         return surface::smooth_positions(op, {tau, steps, preserve_size});
       }, py::arg("op"), py::arg("tau") = surface::SurfaceSmoothingOptions{}.tau,

@@ -178,16 +178,16 @@ TEST(HeatLaplacian, SeveralContoursInGeodesicAndEuclideanModes) {
   const Measures m = measures(cs, ii_normals(set, cs, {0.3}));
   HeatLaplacianOptions o;
   expect_matches_brute_force(cs, m, o);  // each contour with its own t
-  const std::vector<double> own = heat_laplacian(cs, m, o).contour_t;
+  const std::vector<double> own = heat_laplacian(cs, m, o).part_t;
   EXPECT_GT(*std::max_element(own.begin(), own.end()), 1.1 * *std::min_element(own.begin(), own.end()));  // measured 1.27
   o.per_contour_time = false;  // one t, from the set's l
   expect_matches_brute_force(cs, m, o);
-  const std::vector<double> one = heat_laplacian(cs, m, o).contour_t;
+  const std::vector<double> one = heat_laplacian(cs, m, o).part_t;
   EXPECT_EQ(one, std::vector<double>(3, heat_time(cs.h, o, m)));
   o.per_contour_time = true;
   o.distance = DistanceMode::Euclidean;  // contours interact: one t whatever per_contour_time says
   expect_matches_brute_force(cs, m, o);
-  EXPECT_EQ(heat_laplacian(cs, m, o).contour_t, one);
+  EXPECT_EQ(heat_laplacian(cs, m, o).part_t, one);
   const ContourOperator op = heat_laplacian(cs, m, o);
   EXPECT_EQ(op.element(op.row_offset[2]).first, 2u);
   EXPECT_EQ(op.element(op.row_offset[2] + 5).second, 5u);

@@ -255,18 +255,18 @@ TEST(LengthScale, EachContourHasItsOwnHeatTime) {
   const std::size_t big = pair.op.row_offset[1] - pair.op.row_offset[0] > pair.op.row_offset[2] - pair.op.row_offset[1] ? 0 : 1;
   const std::size_t small = 1 - big;
   // The large disc: the same t and the same rows as alone.
-  EXPECT_EQ(pair.op.contour_t[big], alone.op.t);
+  EXPECT_EQ(pair.op.part_t[big], alone.op.t);
   EXPECT_EQ(pair.op.t, alone.op.t);  // the operator reports the contour with the most rows
   const Eigen::Index first = pair.op.row_offset[big], n = pair.op.row_offset[big + 1] - first;
   ASSERT_EQ(n, alone.op.rows());
   const Eigen::MatrixXd rows = Eigen::MatrixXd(pair.op.L).block(first, first, n, n);
   EXPECT_EQ((rows - Eigen::MatrixXd(alone.op.L)).cwiseAbs().maxCoeff(), 0.0);
   // The small disc: its own, smaller t, from its own l (about 8 against 60 pixels).
-  const double ratio = pair.op.contour_t[small] / pair.op.contour_t[big];
+  const double ratio = pair.op.part_t[small] / pair.op.part_t[big];
   const double l_ratio = pair.mu.contour_length_scales[small] / pair.mu.contour_length_scales[big];
   EXPECT_NEAR(ratio, std::pow(l_ratio, 4.0 / 3.0), 1e-12);
   EXPECT_LT(l_ratio, 0.25);
-  EXPECT_EQ(shared.op.contour_t[small], shared.op.contour_t[big]);
+  EXPECT_EQ(shared.op.part_t[small], shared.op.part_t[big]);
   // Laplace-Beltrami estimates per contour, each with its own t, against the exact (2 pi m / P)^2.
   SpectrumOptions so;
   so.count = 7;
@@ -297,7 +297,7 @@ TEST(LengthScale, EachContourHasItsOwnHeatTime) {
   }
   // Matrix-free: the same times, the same products (within its error bound 1e-10 of the scale).
   const MatrixFreeLaplacian mf(pair.contours, pair.mu);
-  EXPECT_EQ(mf.contour_t(), pair.op.contour_t);
+  EXPECT_EQ(mf.contour_t(), pair.op.part_t);
   const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(pair.op.rows(), -1.0, 2.0).array().sin();
   const Eigen::VectorXd exact = pair.op.L * x;
   EXPECT_LT((mf * x - exact).cwiseAbs().maxCoeff(), 1e-9 * Eigen::VectorXd(pair.op.L.diagonal()).cwiseAbs().maxCoeff());

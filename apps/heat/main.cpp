@@ -67,7 +67,7 @@ int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOpti
     u0[0] = 1 / op.mass[0];
   }
   progress.start("factorize");
-  const HeatFlow flow(op.A, op.mass.cwiseMax(0.0), tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
+  const HeatFlow flow(op, tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
   progress.finish();
   const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
   const bool sphere = fe.shape && fe.shape->name() == "sphere";
@@ -166,7 +166,7 @@ int main(int argc, char** argv) {
     const double omega2 = std::pow(2 * kPi / P, 2), a0 = modal_amplitude(u0, mode, op.mass);
     std::printf("# %s, h = %g, N = %ld, l = %.4g, R = %.4g, t = %.4g%s, P (estimated) = %.8g, scheme %s, dt = %g\n",
                 fe.name.c_str(), fe.contours.h, static_cast<long>(op.rows()), fe.measures.length_scale,
-                fe.measures.normal_radius, op.t, app::per_contour_note(op.contour_t).c_str(), P, scheme.c_str(), tau / steps);
+                fe.measures.normal_radius, op.t, app::per_contour_note(op.part_t).c_str(), P, scheme.c_str(), tau / steps);
     std::printf("| tau | first-mode amplitude a(tau)/a(0) | exp(-(2 pi/P)^2 tau) | relative difference | total heat |\n");
     std::printf("|---|---|---|---|---|\n");
     for (std::size_t k = 0; k < snaps.size(); ++k) {

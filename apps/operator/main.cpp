@@ -39,15 +39,7 @@ int main(int argc, char** argv) {
       const surface::SurfaceOperator op = surface::heat_laplacian(sfe.surfels, sfe.measures, op_options);
       progress.finish();
       progress.start("write");
-      std::filesystem::create_directories(out_dir);
-      const std::string ext = format == FileFormat::Npz ? ".npz" : ".mtx";
-      std::vector<std::string> paths;
-      for (const auto& [name, m] : {std::pair<const char*, const SparseMatrix*>{"L", &op.L}, {"A", &op.A}, {"M", &op.M}}) {
-        if (m->rows() == 0) continue;
-        paths.push_back(out_dir + "/" + name + ext);
-        if (format == FileFormat::Npz) save_npz(*m, paths.back());
-        else save_matrix_market(*m, paths.back());
-      }
+      std::vector<std::string> paths = save_operator(op, out_dir, "", format);
       paths.push_back(out_dir + "/surfels.ply");
       surface::save_ply(sfe.surfels, {{"mu", sfe.measures.mu}}, paths.back());
       progress.finish();
@@ -68,7 +60,7 @@ int main(int argc, char** argv) {
                 fe.contours.h, fe.contours.contours.size(), static_cast<long>(op.rows()),
                 static_cast<long>(op.L.nonZeros()));
     std::printf("length scale l = %.6g, II radius R = %.6g, t = %.6g%s, cut = k sqrt(t) = %.6g, estimated length %.10g",
-                fe.measures.length_scale, fe.measures.normal_radius, op.t, app::per_contour_note(op.contour_t).c_str(), op.cut,
+                fe.measures.length_scale, fe.measures.normal_radius, op.t, app::per_contour_note(op.part_t).c_str(), op.cut,
                 fe.measures.total_length());
     if (fe.shape)
       std::printf(" (exact %.10g, relative error %.2e)", fe.exact_length, fe.measures.total_length() / fe.exact_length - 1.0);

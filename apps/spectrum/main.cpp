@@ -34,13 +34,15 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
   progress.finish();
   progress.start("eigenpairs");
-  spectrum_options.method = SpectrumMethod::Products;  // a surface's factorization fills in
-  const Spectrum s = smallest_eigenpairs(op.A, op.mass, spectrum_options);
+  const Spectrum s = smallest_eigenpairs(op, spectrum_options);
   progress.finish();
-  const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);
+  const Eigen::VectorXd& lb = s.laplace_beltrami;
   std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g\n", name.c_str(), h,
               static_cast<long>(op.rows()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
               mu.normal_radius, op.t);
+  if (s.massless > 0)
+    std::printf("# %ld surfels of zero area (II normal orthogonal to the surfel): off the support of mu, their "
+                "eigenvector entries the heat-kernel average of their neighbours\n", static_cast<long>(s.massless));
   const bool sphere = shape && shape->name() == "sphere";
   const double r2 = sphere ? shape->area() / (4 * 3.14159265358979323846) : 0;
   std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t, their Laplace-Beltrami estimates%s\n",
@@ -153,7 +155,7 @@ int main(int argc, char** argv) {
       arclength = op.arclength;
       row_offset = op.row_offset;
       t = op.t;
-      contour_t = op.contour_t;
+      contour_t = op.part_t;
       lengths = op.contour_length;
     }
     const Eigen::Index rows = positions.rows();

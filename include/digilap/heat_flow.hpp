@@ -1,4 +1,4 @@
-// digilap — heat diffusion du/dtau = L u on the contours, with the pair (A, M) (SPEC §4).
+// digilap — heat diffusion du/dtau = L u on contours and surfaces, with the pair (A, M) (SPEC §4, §7).
 //
 // Time stepping solves M u_{n+1} - theta dt A u_{n+1} = M u_n + (1 - theta) dt A u_n,
 // theta = 1 (implicit Euler, first order, monotone) or 1/2 (Crank-Nicolson, second order).
@@ -7,13 +7,14 @@
 // The heat sum_i mu_i u_i of each connected component (each contour, in geodesic mode) is
 // conserved to rounding for every dt: the solve alone loses it when dt A dwarfs M.
 //
-// Elements of measure mu = 0 (possible on noisy contours, SPEC §4) have no equation in the
-// pair (A, M): their rows and columns of A vanish. Built from a ContourOperator, the flow
-// gives them their own row of L instead, du_i/dtau = (L u)_i, stepped with the same scheme
-// once the others are known (they do not influence the others, having no mass).
+// Elements of measure mu = 0 (noisy contours, thin parts of a segmentation: core/operator.hpp)
+// have no equation in the pair (A, M): their rows and columns of A vanish. Built from an
+// operator (any dimension), the flow gives them their own row of L instead, du_i/dtau = (L u)_i,
+// stepped with the same scheme once the others are known (they do not influence the others,
+// having no mass).
 #pragma once
 
-#include "digilap/heat_laplacian.hpp"
+#include "digilap/core/operator.hpp"
 #include "digilap/spectrum.hpp"
 
 #include <Eigen/Core>
@@ -26,11 +27,13 @@ enum class TimeScheme { ImplicitEuler, CrankNicolson };
 class HeatFlow {
 public:
   /// From the pair (A, M). Throws digilap::Error for dt not > 0 and finite, mismatched sizes,
-  /// a mass that is not > 0 (use the ContourOperator constructor), or a failed factorization
-  /// (A not negative semidefinite).
+  /// a mass that is not > 0 (build the flow from the operator, which steps such rows with their
+  /// row of L), or a failed factorization (A not negative semidefinite).
   HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme = TimeScheme::CrankNicolson);
-  /// From an operator; handles elements of zero measure through L (see above).
-  HeatFlow(const ContourOperator& op, double dt, TimeScheme scheme = TimeScheme::CrankNicolson);
+  /// From an operator of any dimension; handles elements of zero measure through L (see above).
+  /// Throws digilap::Error as above, for an operator without A, or for a zero-mass row with no
+  /// neighbour with mass within the cut (a part with no mass at all).
+  HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme = TimeScheme::CrankNicolson);
 
   double dt() const { return dt_; }
   /// One step from u.

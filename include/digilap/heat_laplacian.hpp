@@ -13,6 +13,7 @@
 #pragma once
 
 #include "digilap/contour.hpp"
+#include "digilap/core/operator.hpp"
 #include "digilap/measures.hpp"
 
 #include <Eigen/Core>
@@ -22,10 +23,6 @@
 #include <vector>
 
 namespace digilap {
-
-/// Compressed row storage: rows are assembled in parallel, and Eigen multiplies RowMajor
-/// matrices by vectors in parallel. Assigning to a default (ColMajor) Eigen::SparseMatrix converts.
-using SparseMatrix = Eigen::SparseMatrix<double, Eigen::RowMajor, int>;
 
 /// Distance between elements: along the contour (the paper's choice; only elements of the same
 /// contour interact) or straight-line (BSW08's and DGtal's choice; any two elements interact).
@@ -67,34 +64,17 @@ struct HeatLaplacianOptions {
   double memory_limit_bytes = 8.0 * 1024 * 1024 * 1024;
 };
 
-/// An operator on the elements of contours, with everything needed to use and interpret it.
-struct ContourOperator {
-  SparseMatrix L;          ///< the Laplacian (approximates +Laplace-Beltrami)
-  SparseMatrix A;          ///< the symmetric stiffness M L
-  SparseMatrix M;          ///< the diagonal mass matrix diag(mu)
-  Eigen::VectorXd mass;    ///< mu of each element (the diagonal of M)
+/// An operator on the elements of contours (a HeatOperator of dimension 1 whose parts are the
+/// contours), with everything needed to use and interpret it.
+struct ContourOperator : HeatOperator {
   Eigen::MatrixX2d positions;   ///< element positions
   Eigen::VectorXd arclength;    ///< arclength coordinate of each element along its contour
-  std::vector<Eigen::Index> row_offset;  ///< rows of contour c: [row_offset[c], row_offset[c+1])
   std::vector<double> contour_length;    ///< estimated length P of each contour
   Placement placement = Placement::Pointels;
-  /// Heat time used (0 for the DEC baselines); with per-contour times, the time of the contour
-  /// with the most rows (contour_t has each contour's).
-  double t = 0.0;
-  double length_scale = 0.0;  ///< l behind t (0 when t was given)
-  double cut = 0.0;  ///< kernel cut distance k sqrt(t) (0 for the DEC baselines)
-  /// Heat time of each contour: all equal to t unless the times are per contour
-  /// (HeatLaplacianOptions::per_contour_time); empty for the DEC baselines.
-  std::vector<double> contour_t;
 
-  Eigen::Index rows() const { return L.rows(); }
   /// Contour and position within it of a row.
   std::pair<std::size_t, std::size_t> element(Eigen::Index row) const;
 };
-
-/// Bytes the heat Laplacian would take (L, and A unless `stiffness` is false, in compressed
-/// storage; M and the element arrays), for a given number of nonzeros per matrix and of rows.
-double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffness = true);
 
 /// The heat-kernel Laplacian of SPEC §4. Assembly: each row's neighbours come from a window
 /// over the sorted arclengths (geodesic) or a uniform grid of cell k sqrt(t) (Euclidean), the

@@ -33,9 +33,15 @@ SparseMatrix load_matrix_market(const std::string& path);
 /// (element position, measure and arclength coordinate), with a header line.
 void save_elements_csv(const ContourOperator& op, const std::string& path);
 
-/// Writes L.mtx, A.mtx, M.mtx and elements.csv (or L.npz, A.npz, M.npz and elements.npz) into
-/// `directory` (created if missing), with an optional file-name prefix; A is left out when
-/// the operator was assembled without it. Returns the paths written, in that order.
+/// Writes an operator's matrices, of any dimension: L.mtx, A.mtx and M.mtx (or L.npz, A.npz,
+/// M.npz) into `directory` (created if missing), with an optional file-name prefix; A is left
+/// out when the operator was assembled without it. Returns the paths written, in that order.
+/// (Surfaces: surface::save_ply writes the surfels with their measures beside them.)
+std::vector<std::string> save_operator(const HeatOperator& op, const std::string& directory,
+                                       const std::string& prefix = "", FileFormat format = FileFormat::MatrixMarket);
+
+/// Contours: the matrices as above, then elements.csv (or L.npz, A.npz, M.npz and elements.npz) into
+/// `directory`. Returns the paths written, in that order.
 std::vector<std::string> save_operator(const ContourOperator& op, const std::string& directory,
                                        const std::string& prefix = "", FileFormat format = FileFormat::MatrixMarket);
 

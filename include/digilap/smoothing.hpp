@@ -18,12 +18,16 @@ namespace digilap {
 /// Columns of f (functions on the rows of (A, M), any number: values, positions in 2D or 3D)
 /// diffused for time tau by the heat flow of (A, M), implicit Euler in `steps` equal steps: the
 /// dimension-free core of the smoothing functions. Throws digilap::Error for tau not > 0 and
-/// finite, steps < 1, a size mismatch, or a mass that is not > 0.
+/// finite, steps < 1, a size mismatch, or a mass that is not > 0 (zero-mass rows need the
+/// operator: smooth(op, f, tau, steps)).
 Eigen::MatrixXd smooth(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::MatrixXd& f, double tau, int steps = 1);
+/// The same from an operator of any dimension: zero-mass rows follow their row of L.
+Eigen::MatrixXd smooth(const HeatOperator& op, const Eigen::MatrixXd& f, double tau, int steps = 1);
 
-/// A function smoothed by diffusion for time tau. Throws digilap::Error for tau not > 0 and
-/// finite, steps < 1, or a size mismatch.
-Eigen::VectorXd smooth_function(const ContourOperator& op, const Eigen::VectorXd& f, double tau, int steps = 1);
+/// A function on an operator's rows (contours or surfaces) smoothed by diffusion for time tau;
+/// zero-mass rows follow their row of L (heat_flow.hpp). Throws digilap::Error for tau not > 0
+/// and finite, steps < 1, a size mismatch, or as HeatFlow(op, dt).
+Eigen::VectorXd smooth_function(const HeatOperator& op, const Eigen::VectorXd& f, double tau, int steps = 1);
 
 struct ContourSmoothingOptions {
   double tau = 1e-2;  ///< diffusion time (the stopping parameter, see above)

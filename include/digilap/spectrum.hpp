@@ -15,8 +15,14 @@
 // when there are several) and the results merged; a component's Lanczos answer is checked by
 // the inertia of -A - sigma M (the number of eigenvalues below sigma) and recomputed when it
 // skipped a copy.
+//
+// Elements of zero mass (mu = 0) have vanishing rows and columns in A: the problem lives on the
+// support of mu, and is solved there (every method). Their eigenvector entries are 0 from
+// (A, mass) alone; from an operator (smallest_eigenpairs(op)) they are the heat-kernel average
+// of their neighbours, their row of L (core/operator.hpp). Spectrum::massless counts them.
 #pragma once
 
+#include "digilap/core/operator.hpp"
 #include "digilap/heat_laplacian.hpp"
 
 #include <Eigen/Core>
@@ -31,6 +37,8 @@ enum class SpectrumMethod {
   /// Factorization (shift-and-invert Lanczos), unless block LOBPCG on products alone converges
   /// within the factorization's own cost, as it does on surfaces (whose factor fills in).
   Auto,
+  // (From an operator of dimension >= 2, or with SpectrumOptions::dimension >= 2, Auto means
+  // Products: a surface's factorization fills in.)
   /// Shift-and-invert Lanczos on a sparse LDL^T of -A - sigma M (curves: the factor stays a band).
   Factorization,
   /// Block LOBPCG on products with A, no factorization and no symbolic analysis (surfaces: the
@@ -44,12 +52,19 @@ struct SpectrumOptions {
   SpectrumMethod method = SpectrumMethod::Auto;  ///< explicit operators: see SpectrumMethod
   int max_iterations = 1000; ///< Lanczos restarts, or LOBPCG iterations, allowed
   double tolerance = 1e-10;  ///< relative tolerance on the Ritz values
-  int subspace = 0;          ///< Krylov subspace size; 0 = max(2 count + 1, 20), capped at N
-  /// Matrix-free solver only: the dense blocks it may allocate (LOBPCG holds about 16 blocks
-  /// of N x (count + guard) doubles); above it, Lanczos (N x subspace), else digilap::Error.
+  /// Krylov subspace size; 0 = max(2 count + 1, 20) for Lanczos (max(4 count, 40) on the
+  /// matrix-free path), capped at N
+  int subspace = 0;
+  /// The manifold's dimension d of (A, M) (1: curves, 2: surfaces): the Lanczos shift is
+  /// -1e-2 (2 pi)^2 / (sum mu)^(2/d), a hundredth of the first eigenvalue's order whatever the
+  /// units, and Auto means Products for d >= 2. smallest_eigenpairs(op) takes op.dimension.
+  int dimension = 1;
+  /// The dense blocks LOBPCG may allocate (it holds about 11 blocks of N x (count + guard)
+  /// doubles); above it, the factorization (explicit operators) or Lanczos (matrix-free), else
+  /// digilap::Error.
   double memory_limit_bytes = 8.0 * (1ull << 30);
-  /// Matrix-free solver only, optional: called after each LOBPCG iteration with the iteration
-  /// and the largest wanted residual relative to the tolerance (converged when <= 1).
+  /// Optional: called after each LOBPCG iteration with the iteration and the largest wanted
+  /// residual relative to the tolerance (converged when <= 1).
   std::function<void(int iteration, double residual_over_tolerance)> progress;
 };
 
@@ -61,25 +76,36 @@ struct Spectrum {
   /// How many eigenvalues have lambda t >= 1, where no estimate exists (0 when all are defined).
   int undefined_estimates = 0;
   Eigen::MatrixXd eigenvectors;  ///< one M-normalized column per eigenvalue
-  int iterations = 0;            ///< Lanczos restarts used
+  /// Rows of zero mass: off the support of mu, where the problem was solved (see above).
+  Eigen::Index massless = 0;
+  int iterations = 0;            ///< Lanczos restarts, or LOBPCG iterations, used (summed over parts)
   int operations = 0;            ///< applications of the shift-inverted operator
 };
 
-/// The `count` smallest eigenpairs of -A x = lambda M x. Throws digilap::Error when a mass is
-/// not > 0 (M must be definite: use pointels, or a smaller k_R), when count is not in
-/// [1, N - 1], or when Spectra does not converge (the message says how many did, and what to
-/// try: more iterations, a larger subspace).
+/// The `count` smallest eigenpairs of -A x = lambda M x, on the support of mu (entries of zero
+/// mass rows are 0). Throws digilap::Error when a mass is negative or not finite, when count is
+/// not in [1, N_support - 1], or when Spectra does not converge (the message says how many did,
+/// and what to try: more iterations, a larger subspace).
 Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& options = {});
 
-/// Convenience: from an operator (uses op.A and op.mass).
-Spectrum smallest_eigenpairs(const ContourOperator& op, const SpectrumOptions& options = {});
+/// From an operator of any dimension (op.A, op.mass, op.dimension): also fills the
+/// Laplace-Beltrami estimates, each eigenvector's from the heat time of the part it lives on,
+/// and gives zero-mass rows the average of their neighbours (their row of op.L). Throws
+/// digilap::Error as above, when the operator was assembled without A, or when a zero-mass row
+/// has no neighbour with mass within the cut (a part with no mass at all).
+Spectrum smallest_eigenpairs(const HeatOperator& op, const SpectrumOptions& options = {});
 
-/// The spectrum of each contour on its own (the natural shape descriptor of each object of an
-/// image): element c holds the min(count, n_c) smallest eigenpairs of contour c, on its n_c
-/// rows (row op.row_offset[c] + i of the operator is entry i). Contours are solved in
-/// parallel. Throws digilap::Error when contours interact (Euclidean distance), or when a mass
-/// is not > 0.
-std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& options = {});
+/// The spectrum of each part (contour, surface) on its own (the natural shape descriptor of each
+/// object): element p holds the min(count, n_p) smallest eigenpairs of part p on its n_p rows
+/// (row op.row_offset[p] + i of the operator is entry i), n_p counting its rows with mass.
+/// Parts are solved in parallel. Throws digilap::Error when parts interact (contours at the
+/// Euclidean distance), or as smallest_eigenpairs(op).
+std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const SpectrumOptions& options = {});
+
+/// smallest_eigenpairs_per_part for contours (the name of earlier releases).
+inline std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperator& op, const SpectrumOptions& options = {}) {
+  return smallest_eigenpairs_per_part(op, options);
+}
 
 /// Undoes the heat kernel's bias on eigenvalues: the heat-kernel operator with time t has
 /// eigenvalues lambda = (1 - exp(-mu t)) / t where the Laplace-Beltrami operator has mu (SPEC

@@ -4,9 +4,10 @@
 #include "../row_assembly.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <cstdlib>
+#include <limits>
 #include <numeric>
 #include <sstream>
 
@@ -171,6 +172,14 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
   op.positions = surfels.centres();
   op.mass = measures.mu;
   const double inv_4t = 1 / (4 * op.t), scale = 1 / (4 * kPi * op.t * op.t);  // 1 / (t (4 pi t)^(d/2)), d = 2
+  if (!std::isfinite(scale) || !std::isfinite(op.cut)) {  // t from extreme h, l or c_t
+    std::ostringstream msg;
+    msg << "heat_laplacian (surfaces): the heat time t = " << op.t << " gives a kernel prefactor 1 / (4 pi t^2) = " << scale
+        << " and a cut " << op.cut << ": one is not a finite number; give a t (or an h) in a usable range";
+    throw Error(msg.str());
+  }
+  op.row_offset = {0, n};
+  op.part_t = {op.t};
   if (n == 0) return op;
   const Grid grid(op.positions, op.cut);
   std::vector<Eigen::Index> row_nnz(static_cast<std::size_t>(n));
@@ -179,17 +188,12 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
     row_nnz[static_cast<std::size_t>(i)] = grid.count_within(op.positions.row(i).transpose(), op.cut);  // with the diagonal
   }
   const auto nnz = static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0)));
-  const double bytes = heat_laplacian_bytes(nnz, static_cast<std::size_t>(n), options.stiffness);
-  if (bytes > options.memory_limit_bytes || nnz > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
-    std::ostringstream msg;
-    msg << "heat_laplacian (surfaces): the operator would take about " << bytes / 1e9 << " GB (" << nnz
-        << " nonzeros per matrix, " << n << " rows), above the memory limit of " << options.memory_limit_bytes / 1e9
-        << " GB (or 2^31 nonzeros); raise memory_limit_bytes, use a coarser h, or a smaller t or k";
-    throw Error(msg.str());
-  }
+  detail::check_operator_memory("heat_laplacian (surfaces)", nnz, static_cast<std::size_t>(n), options.memory_limit_bytes,
+                                options.stiffness, "use a smaller c_t, t or k (for a volume h only sets the units)");
   detail::allocate(op.L, n, row_nnz);
   if (options.stiffness) detail::allocate(op.A, n, row_nnz);
   SparseMatrix* stiffness = options.stiffness ? &op.A : nullptr;
+  std::atomic<bool> mismatch{false};
 #pragma omp parallel
   {
     RowBuffer found;  // this thread's
@@ -201,12 +205,17 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
       double* d2 = op.L.valuePtr() + begin;  // squared distances, turned into weights by finish_row
       grid.gather_within(op.positions.row(i).transpose(), op.cut, found);
       const int count = op.L.outerIndexPtr()[i + 1] - begin;
-      if (found.size != static_cast<std::size_t>(count)) std::abort();  // the same test as the count: cannot differ
+      if (found.size != static_cast<std::size_t>(count)) {  // the same test as the count: cannot differ
+        mismatch = true;  // no throw inside a parallel region: reported after it
+        continue;
+      }
       sorter.sort(found, col, d2);
       const Eigen::Index diag = std::lower_bound(col, col + count, static_cast<int>(i)) - col;
       detail::finish_row(op.L, stiffness, i, diag, op.mass, inv_4t, scale);
     }
   }
+  if (mismatch)
+    throw Error("heat_laplacian (surfaces): a row found another number of neighbours than it counted (internal error)");
   op.M.resize(n, n);
   op.M.reserve(Eigen::VectorXi::Ones(n));
   for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = op.mass[r];

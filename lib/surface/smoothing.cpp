@@ -23,7 +23,7 @@ std::pair<Eigen::RowVector3d, double> centroid_and_rms(const Eigen::MatrixX3d& p
 }  // namespace
 
 Eigen::MatrixX3d smooth_positions(const SurfaceOperator& op, const SurfaceSmoothingOptions& o) {
-  Eigen::MatrixX3d p = smooth(op.A, op.mass, op.positions, o.tau, o.steps);
+  Eigen::MatrixX3d p = smooth(op, op.positions, o.tau, o.steps);
   if (o.preserve_size)
     for (const std::vector<Eigen::Index>& rows : detail::connected_components(op.A).rows) {
       const auto [before_centre, before] = centroid_and_rms(op.positions, op.mass, rows);

@@ -17,12 +17,10 @@
 
 namespace digilap::surface {
 
-struct SurfaceOperator {
-  SparseMatrix L, A, M;
-  Eigen::VectorXd mass;
+/// The operator on the surfels: dimension 2, one part (row_offset = {0, N}, part_t = {t}).
+struct SurfaceOperator : HeatOperator {
   Eigen::MatrixX3d positions;  ///< surfel centres
-  double t = 0, cut = 0, length_scale = 0;
-  Eigen::Index rows() const { return L.rows(); }
+  SurfaceOperator() { dimension = 2; }
 };
 
 /// The operator of SPEC §7. From HeatLaplacianOptions: t (0: c_t h^(2/3) l^(4/3), l the

@@ -1,0 +1,23 @@
+# The shared core (include/digilap/core, lib/core) is written once for every dimension: it may
+# include the core's own headers, Eigen, Spectra and the standard library, never a curve or
+# surface header. Fails naming the file and the line.
+file(GLOB_RECURSE core_files ${SOURCE_DIR}/include/digilap/core/* ${SOURCE_DIR}/lib/core/*)
+set(violations "")
+foreach(f ${core_files})
+  file(STRINGS ${f} lines REGEX "^#include \"")
+  foreach(line ${lines})
+    if(NOT line MATCHES "^#include \"(digilap/core/[a-z_]+\\.hpp|[a-z_]+\\.hpp)\"")
+      string(APPEND violations "\n  ${f}: ${line}")
+    elseif(line MATCHES "^#include \"([a-z_]+\\.hpp)\"" AND NOT EXISTS ${SOURCE_DIR}/lib/core/${CMAKE_MATCH_1})
+      string(APPEND violations "\n  ${f}: ${line} (not a lib/core header)")
+    endif()
+  endforeach()
+endforeach()
+list(LENGTH core_files count)
+if(count LESS 3)
+  message(FATAL_ERROR "layering: found only ${count} core files under ${SOURCE_DIR}")
+endif()
+if(violations)
+  message(FATAL_ERROR "layering: the core includes headers outside the core:${violations}")
+endif()
+message(STATUS "layering: ${count} core files include only the core")
