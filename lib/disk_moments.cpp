@@ -1,29 +1,12 @@
 #include "disk_moments.hpp"
 
+#include "core/lattice.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
 
 namespace digilap::detail {
-
-namespace {
-
-// Sum of i^2 for i = 0..n as a polynomial: valid for negative n too (P(n) - P(n-1) = n^2).
-std::int64_t sum_squares(std::int64_t n) { return n * (n + 1) * (2 * n + 1) / 6; }
-
-// Largest m >= 0 with m^2 <= q (q >= 0), exact despite sqrt rounding.
-std::int64_t floor_sqrt(double q) {
-  auto m = static_cast<std::int64_t>(std::sqrt(q));
-  while (m > 0 && static_cast<double>(m) * m > q) --m;
-  while (static_cast<double>(m + 1) * (m + 1) <= q) ++m;
-  return m;
-}
-
-// floor(a / 2) and ceil(a / 2) for signed a.
-std::int64_t floor_half(std::int64_t a) { return a >= 0 ? a / 2 : -((-a + 1) / 2); }
-std::int64_t ceil_half(std::int64_t a) { return -floor_half(-a); }
-
-}  // namespace
 
 // Why row moments: the disk holds O((R/h)^2) pixels, but each of its O(R/h) rows meets the set
 // in a few runs, and the moments of a run of consecutive pixels have closed forms. So a linel

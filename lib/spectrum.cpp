@@ -437,17 +437,20 @@ std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const
   SpectrumOptions o = options;
   o.dimension = op.dimension;
   const Support support = support_of(op.mass);
-  const std::vector<Eigen::Index> massless = op.massless_rows();
-  detail::check_massless_reach_mass(op, massless, "smallest_eigenpairs_per_part");
   std::vector<Eigen::Index> offset = op.row_offset;  // the parts' rows, on the support
   if (offset.empty()) offset = {0, op.rows()};
   const std::size_t part_count = offset.size() - 1;
   std::vector<Eigen::Index> support_offset(offset.size(), 0);
+  std::vector<Eigen::Index> massless;  // of the parts with mass: a part with none has an empty spectrum
   for (std::size_t p = 0; p < part_count; ++p) {
     Eigen::Index with_mass = 0;
     for (Eigen::Index r = offset[p]; r < offset[p + 1]; ++r) with_mass += support.local[r] >= 0;
     support_offset[p + 1] = support_offset[p] + with_mass;
+    if (with_mass > 0)
+      for (Eigen::Index r = offset[p]; r < offset[p + 1]; ++r)
+        if (support.local[r] < 0) massless.push_back(r);
   }
+  detail::check_massless_reach_mass(op, massless, "smallest_eigenpairs_per_part");
   const SparseMatrix A = support.whole() ? SparseMatrix() : restricted(op.A, support);
   const SparseMatrix& a = support.whole() ? op.A : A;
   const Eigen::VectorXd mass = restricted(op.mass, support);
@@ -478,6 +481,13 @@ std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const
         for (Eigen::Index& r : of_part.back().rows) r -= support_offset[p];
       }
     const Eigen::Index n = support_offset[p + 1] - support_offset[p], rows = offset[p + 1] - offset[p];
+    if (n == 0) {  // no mass at all: no eigenpair, every row off the support
+      Spectrum none;
+      none.eigenvectors.resize(rows, 0);
+      none.massless = rows;
+      spectra.push_back(std::move(none));
+      continue;
+    }
     Spectrum s = detail::merge_parts(of_part, n, static_cast<int>(std::min<Eigen::Index>(o.count, n)));
     if (n < rows) {  // back on the part's own rows, zero-mass rows from their row of L
       Eigen::MatrixXd full = Eigen::MatrixXd::Zero(op.rows(), s.eigenvectors.cols());

@@ -138,9 +138,18 @@ const std::vector<Case> kCases = {
     {"volume_unknown_extension", "operator", "--volume {data}/ten_squares.pbm", "", false, "unknown extension (.npy, .nii or .nii.gz)"},
     {"volume_empty", "spectrum", "--volume {dir}/volume_empty.npy", npy_cube(6, 0), false, "no voxel reaches the threshold"},
     {"volume_all_foreground", "spectrum", "--volume {dir}/volume_all_foreground.npy --count 3 --out {dir}/full", npy_cube(6, 1), true, "volume_all_foreground.npy, h = 0.166667"},
-    {"volume_single_voxel_dropped", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy", "", false, "every surface has fewer than 8 surfels: lower --min-linels"},
+    {"volume_single_voxel_dropped", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy", "", false, "every surface has fewer than 8 surfels: lower --min-size"},
     {"volume_single_voxel_kept", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy --min-linels 0 --out {dir}/one", "", true, "N = 6 surfels, nnz(L) = 36, area 6"},
     {"volume_size_above_limit", "operator", "--volume {dir}/volume_size_above_limit.npy", npy_cube(2000, -1), false, "voxels are above the limit"},
+    // Issue 21: an explicit --kR 2 on a surface is 2 (it was taken for the unset default, 1):
+    // R = 2 h^(1/3) with l = 1 is 0.928318 at h = 0.1.
+    {"surface_explicit_kR_2", "operator", "--shape sphere --h 0.1 --kR 2 --length-scale 1 --out {dir}/kR2", "", true, "II radius R = 0.928318"},
+    {"surface_default_kR_1", "operator", "--shape sphere --h 0.1 --length-scale 1 --out {dir}/kR1", "", true, "II radius R = 0.464159"},
+    {"volume_min_size_alias", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy --min-size 0 --out {dir}/one6", "", true, "N = 6 surfels"},
+    // Issue 22: a real label whose thin parts give surfels of zero area (II normal orthogonal to
+    // the surfel) has a spectrum, solved on the support of mu (JHU white-matter atlas, 2 mm, label 6).
+    {"real_label_zero_areas_spectrum", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --label 6 --largest --count 6 --out {dir}/l6", "", true, "20 surfels of zero area"},
+    {"real_label_zero_areas_heat", "heat", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --label 6 --largest --tau 2 --steps 4 --out {dir}/l6h", "", true, "| 2 |"},
     {"volume_kR_covers_object", "operator", "--volume {data}/ball.nii.gz --kR 100", "", false, "is wider than the whole set"},
     {"volume_memory_limit", "operator", "--volume {data}/ball.nii.gz --memory-limit 1000", "", false, "above the memory limit"},
     {"surface_memory_limit", "spectrum", "--shape sphere --memory-limit 1000", "", false, "above the memory limit"},

@@ -45,9 +45,10 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_option("--threshold", o.threshold, "Images: foreground = value < threshold * maxval")->capture_default_str();
   app.add_flag("--invert", o.invert, "Images: foreground = value >= threshold * maxval (light objects)");
   app.add_flag("--largest", o.largest, "Images and volumes: keep the largest contour (surface) only");
-  app.add_option("--min-linels", o.min_linels, "Images and volumes: drop contours (surfaces) with fewer linels (surfels)")
+  app.add_option("--min-size,--min-linels", o.min_linels,
+                 "Images and volumes: drop contours with fewer linels, surfaces with fewer surfels")
       ->capture_default_str();
-  app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->default_str("2 (curves), 1 (surfaces)");
   app.add_option("--length-scale", o.length_scale,
                  "Length scale l of R and of the default t (0: measured on the shape's pixels, a robust small "
                  "radius of curvature; 1: the former R = kR h^(1/3), t = ct h^(2/3))")
@@ -81,6 +82,11 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
       ->capture_default_str();
   app.add_flag("--one-heat-time{false}", o.per_contour_time,
                "Geodesic: one t for all contours, from the set's l (default: each contour's own l_c)");
+}
+
+double ii_k_R(double given, int dimension) {
+  if (given > 0) return given;
+  return dimension == 1 ? IINormalOptions{}.k_R : surface::SurfaceNormalOptions{}.k_R;
 }
 
 std::string per_contour_note(const std::vector<double>& contour_t) {
@@ -156,7 +162,7 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   if (fe.contours.contours.empty()) throw Error("no contour left (all shorter than --min-linels)");
   progress.start("normals");
   fe.normals = o.normals == "exact" ? exact_normals(*fe.shape, fe.contours, o.length_scale)
-                                    : ii_normals(fe.set, fe.contours, IINormalOptions{o.k_R, o.length_scale, o.length_quantile});
+                                    : ii_normals(fe.set, fe.contours, IINormalOptions{ii_k_R(o.k_R, 1), o.length_scale, o.length_quantile});
   fe.seconds_normals = progress.finish();
   progress.start("measures");
   fe.measures = measures(fe.contours, fe.normals);
@@ -192,7 +198,7 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     fe.voxels = surface::read_volume(o.volume, vo);
     fe.name = std::filesystem::path(o.volume).filename().string();
   }
-  // The connected surfaces, filtered as contours are: --largest, and --min-linels as surfels.
+  // The connected surfaces, filtered as contours are: --largest, and --min-size in surfels.
   surface::FilteredSurfels kept = surface::filter_surfels(fe.voxels, surface::extract_surfels(fe.voxels), {o.min_linels, o.largest});
   fe.surfels = std::move(kept.surfels);
   progress.finish();
@@ -200,11 +206,10 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     std::fprintf(stderr, "warning: dropped %zu surface(s)%s\n", kept.dropped,
                  o.largest ? " (keeping the largest only)" : (" with fewer than " + std::to_string(o.min_linels) + " surfels").c_str());
   if (fe.surfels.size() == 0 && kept.dropped > 0)
-    throw Error("every surface has fewer than " + std::to_string(o.min_linels) + " surfels: lower --min-linels");
+    throw Error("every surface has fewer than " + std::to_string(o.min_linels) + " surfels: lower --min-size");
   if (fe.surfels.size() == 0) throw Error("the digitization is empty: use a smaller h");
   progress.start("normals");
-  const double k_R = o.k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : o.k_R;
-  fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {k_R, o.length_scale});
+  fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {ii_k_R(o.k_R, 2), o.length_scale, o.length_quantile});
   progress.finish();
   fe.measures = surface::measures(fe.surfels, fe.normals);
   if (!progress.quiet())

@@ -21,7 +21,8 @@ struct FrontEndOptions {
   double rotate_degrees = 0.0;  // pose of the shape
   std::vector<double> centre;   // empty, or x, y
   double h = 0.0;               // 0: 0.01 for shapes, 1 / max(width, height) for images
-  double k_R = IINormalOptions{}.k_R;
+  /// II radius constant; 0 (not given): each dimension's default (ii_k_R()).
+  double k_R = 0;
   double length_scale = 0.0;   // l of R and t; 0 = measured on the set (length_scale.hpp)
   double length_quantile = IINormalOptions{}.length_quantile;
   std::string normals = "ii";   // "ii" (Integral Invariants) or "exact" (reference shapes only)
@@ -34,6 +35,10 @@ struct FrontEndOptions {
 void add_front_end_options(CLI::App& app, FrontEndOptions& options, bool with_h = true);
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& options);
 /// "" when the contours share one heat time, else a note with the range of their own times.
+/// --kR as given, or the default of the dimension's II normals (curves 2, surfaces 1: two
+/// studies, normals.hpp and surface/normals.hpp) when it was not.
+double ii_k_R(double given, int dimension);
+
 std::string per_contour_note(const std::vector<double>& contour_t);
 
 /// Progress and stage timing on stderr; silent with --quiet.
@@ -71,7 +76,7 @@ FrontEnd run_front_end(const FrontEndOptions& options, Progress& progress);
 /// Everything before a surface's operator (SPEC §7): a reference surface (--shape sphere,
 /// ellipsoid, torus with parameters; --rotate about z, --centre X,Y) digitized at h (default
 /// 0.05), or a .npy volume (--volume, --label); surfels, II normals (k_R: the surfaces' default
-/// 1 unless --kR was changed), areas.
+/// 1 unless --kR is given), areas.
 struct SurfaceFrontEnd {
   std::unique_ptr<surface::Surface> shape;  // null for a volume
   std::string name;

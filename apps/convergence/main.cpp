@@ -26,7 +26,7 @@ int surface_convergence(const std::string& spec, const std::string& function, st
   auto shape = surface::make_surface(spec);
   const Eigen::Vector3d c = centre.empty() ? Eigen::Vector3d(0.0123, -0.0371, 0.0217) : Eigen::Vector3d(centre[0], centre[1], 0);
   shape->set_pose(c, Eigen::AngleAxisd(rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
-  const double kR = k_R == IINormalOptions{}.k_R ? surface::SurfaceNormalOptions{}.k_R : k_R;
+  const double kR = app::ii_k_R(k_R, 2);
   struct Row {
     double h, t, l, error;
     std::string variant;
@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
   CLI::App app{"digilap-convergence: max error of digital Laplace-Beltrami operators vs h (paper's Fig. 5).\n"
                "Writes <out>/convergence.csv and <out>/convergence.svg."};
   std::string shape_name = "flower", function = "x2", sampling = "closest", out_dir = "out/convergence";
-  double k_R = IINormalOptions{}.k_R, length_scale = 0.0, length_quantile = IINormalOptions{}.length_quantile;
+  double k_R = 0, length_scale = 0.0, length_quantile = IINormalOptions{}.length_quantile;
   HeatLaplacianOptions base;
   std::vector<double> steps{0.1, 0.05, 0.02, 0.01, 0.005, 0.002, 0.001};
   std::vector<std::string> operators{"geodesic", "euclidean", "geodesic-exact", "dgtal", "richardson-euclidean",
@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
                        ->capture_default_str()
                        ->expected(1, 100);
   app.add_option("--operators", operators, "Operators to compare: " + variants)->capture_default_str()->expected(1, 20);
-  app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->capture_default_str();
+  app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(CLI::PositiveNumber)->default_str("2 (curves), 1 (surfaces)");
   app.add_option("--ct", base.c_t, "Heat time t = ct h^(2/3) l^(4/3)")->capture_default_str();
   app.add_option("--length-scale", length_scale,
                  "Length scale l (0: measured at each h on the pixels; 1: the former t = ct h^(2/3), R = kR h^(1/3))")
@@ -176,7 +176,7 @@ int main(int argc, char** argv) {
     std::sort(o.steps.begin(), o.steps.end(), std::greater<>());
     for (double h : o.steps)
       if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
-    o.ii.k_R = k_R;
+    o.ii.k_R = app::ii_k_R(k_R, 1);
     o.ii.length_scale = length_scale;
     o.ii.length_quantile = length_quantile;
     base.length_scale = length_scale;
@@ -188,7 +188,7 @@ int main(int argc, char** argv) {
     progress.end_bar();
 
     std::printf("# %s, g = %s, sampling %s, R = %g h^(1/3) l^(2/3), t = %g h^(2/3) l^(4/3), k = %g, l %s\n",
-                shape->name().c_str(), f.name.c_str(), sampling.c_str(), k_R, base.c_t, base.k,
+                shape->name().c_str(), f.name.c_str(), sampling.c_str(), o.ii.k_R, base.c_t, base.k,
                 length_scale > 0 ? "given" : "measured at each h");
     std::printf("| h | operator | N | nnz | l | t | max err | mean err | rel max err | length rel err | front end (s) | assembly (s) | eval (s) |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");

@@ -46,6 +46,11 @@ struct HeatLaplacianOptions {
   /// large contour's time swamp a small one. false: one t for all, from the set's l. Contours
   /// that interact (Euclidean distance) always share one t; a given t or l is used for all.
   bool per_contour_time = true;
+  /// Surfaces only: kernel weights between different connected surfaces (the ambient coupling
+  /// of earlier releases, one heat time for all). Off (the default): a surface's operator does
+  /// not join disconnected pieces; each surface has its own rows, heat time (as contours do,
+  /// per_contour_time) and zero eigenvalue.
+  bool couple_surfaces = false;
   /// Kernel cut at distance k * sqrt(t). k = 6 leaves under 1e-3 of the kernel's second moment
   /// outside (DGtal's K = 3 in its K sqrt(2t) convention is our k = 4.24).
   double k = 6.0;

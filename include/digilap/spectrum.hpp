@@ -98,7 +98,8 @@ Spectrum smallest_eigenpairs(const HeatOperator& op, const SpectrumOptions& opti
 /// The spectrum of each part (contour, surface) on its own (the natural shape descriptor of each
 /// object): element p holds the min(count, n_p) smallest eigenpairs of part p on its n_p rows
 /// (row op.row_offset[p] + i of the operator is entry i), n_p counting its rows with mass.
-/// Parts are solved in parallel. Throws digilap::Error when parts interact (contours at the
+/// Parts are solved in parallel; a part with no mass at all gets an empty spectrum (no
+/// eigenvalue, massless = n_p). Throws digilap::Error when parts interact (contours at the
 /// Euclidean distance), or as smallest_eigenpairs(op).
 std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const SpectrumOptions& options = {});
 

@@ -3,6 +3,7 @@
 #include "digilap/core/error.hpp"
 #include "massless.hpp"
 
+#include <algorithm>
 #include <limits>
 #include <sstream>
 
@@ -37,11 +38,18 @@ void check_operator_memory(const std::string& who, std::size_t nonzeros, std::si
   throw Error(msg.str());
 }
 void check_massless_reach_mass(const HeatOperator& op, const std::vector<Eigen::Index>& massless, const char* who) {
-  for (Eigen::Index i : massless)
-    if (!(op.L.coeff(i, i) < 0))
-      throw Error(std::string(who) + ": row " + std::to_string(i) +
-                  " has zero mass and no neighbour with mass within the kernel's cut (a part with no mass at all: "
-                  "every II normal of it orthogonal to its element); drop that part, or use a smaller k_R");
+  for (Eigen::Index i : massless) {
+    if (op.L.coeff(i, i) < 0) continue;
+    std::string part;
+    if (op.parts() > 1) {
+      const auto p = static_cast<std::size_t>(std::upper_bound(op.row_offset.begin(), op.row_offset.end(), i) - op.row_offset.begin() - 1);
+      part = " of part " + std::to_string(p) + " (" + std::to_string(op.row_offset[p + 1] - op.row_offset[p]) + " rows)";
+    }
+    throw Error(std::string(who) + ": row " + std::to_string(i) + part +
+                " has zero mass and no neighbour with mass within the kernel's cut (a part with no mass at all: every II "
+                "normal of it orthogonal to its element, as on a speck of a few voxels); drop it (a minimum size, or the "
+                "largest part only), take the spectra per part, or use a smaller k_R");
+  }
 }
 }  // namespace detail
 

@@ -159,6 +159,21 @@ private:
 };
 }  // namespace
 
+namespace {
+// The kernel of one heat time: its cut, 1 / (4t) and prefactor 1 / (4 pi t^2), checked finite.
+struct Kernel {
+  double t, cut, inv_4t, scale;
+  Kernel(double t_, double k) : t(t_), cut(k * std::sqrt(t_)), inv_4t(1 / (4 * t_)), scale(1 / (4 * kPi * t_ * t_)) {
+    if (!std::isfinite(scale) || !std::isfinite(cut) || !std::isfinite(inv_4t)) {  // t from extreme h, l or c_t
+      std::ostringstream msg;
+      msg << "heat_laplacian (surfaces): the heat time t = " << t << " gives a kernel prefactor 1 / (4 pi t^2) = " << scale
+          << " and a cut " << cut << ": one is not a finite number; give a t (or an h) in a usable range";
+      throw Error(msg.str());
+    }
+  }
+};
+}  // namespace
+
 SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options) {
   if (options.richardson) throw Error("heat_laplacian (surfaces): Richardson extrapolation is not available in 3D");
   const auto n = static_cast<Eigen::Index>(surfels.size());
@@ -166,26 +181,44 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
     throw Error("heat_laplacian (surfaces): " + std::to_string(measures.mu.size()) + " measures for " + std::to_string(n) + " surfels");
   require_positive("heat_laplacian (surfaces): k", options.k);
   SurfaceOperator op;
-  op.t = heat_time(surfels.h, options, measures.length_scale);
-  op.length_scale = options.t != 0 ? 0.0 : (options.length_scale != 0 ? options.length_scale : measures.length_scale);
-  op.cut = options.k * std::sqrt(op.t);
   op.positions = surfels.centres();
   op.mass = measures.mu;
-  const double inv_4t = 1 / (4 * op.t), scale = 1 / (4 * kPi * op.t * op.t);  // 1 / (t (4 pi t)^(d/2)), d = 2
-  if (!std::isfinite(scale) || !std::isfinite(op.cut)) {  // t from extreme h, l or c_t
-    std::ostringstream msg;
-    msg << "heat_laplacian (surfaces): the heat time t = " << op.t << " gives a kernel prefactor 1 / (4 pi t^2) = " << scale
-        << " and a cut " << op.cut << ": one is not a finite number; give a t (or an h) in a usable range";
-    throw Error(msg.str());
+  // The parts: the connected surfaces, or all surfels together when they are coupled.
+  op.row_offset.clear();
+  if (options.couple_surfaces) {
+    op.row_offset = {0, n};
+  } else {
+    for (std::size_t offset : surfels.offsets()) op.row_offset.push_back(static_cast<Eigen::Index>(offset));
   }
-  op.row_offset = {0, n};
-  op.part_t = {op.t};
+  const std::size_t parts = op.row_offset.size() - 1;
+  // Each part's heat time: its own l_c as contours have, unless t or l is given or one is asked.
+  const bool own_l = parts > 0 && !options.couple_surfaces && options.per_contour_time && options.t == 0 && options.length_scale == 0 &&
+                     measures.surface_length_scales.size() == parts;
+  std::vector<Kernel> kernel;
+  for (std::size_t p = 0; p < parts; ++p)
+    kernel.emplace_back(heat_time(surfels.h, options, own_l ? measures.surface_length_scales[p] : measures.length_scale), options.k);
+  if (parts == 0) kernel.emplace_back(heat_time(surfels.h, options, measures.length_scale), options.k);
+  std::size_t largest = 0;  // the part with the most rows: its t is the operator's t
+  for (std::size_t p = 0; p < parts; ++p)
+    if (op.row_offset[p + 1] - op.row_offset[p] > op.row_offset[largest + 1] - op.row_offset[largest]) largest = p;
+  op.t = kernel[largest].t;
+  op.cut = kernel[largest].cut;
+  op.length_scale = options.t != 0              ? 0.0
+                    : options.length_scale != 0 ? options.length_scale
+                    : own_l                     ? measures.surface_length_scales[largest]
+                                                : measures.length_scale;
+  for (std::size_t p = 0; p < parts; ++p) op.part_t.push_back(kernel[p].t);
   if (n == 0) return op;
-  const Grid grid(op.positions, op.cut);
+  std::vector<Grid> grids;
+  grids.reserve(parts);
+  for (std::size_t p = 0; p < parts; ++p)
+    grids.emplace_back(op.positions.middleRows(op.row_offset[p], op.row_offset[p + 1] - op.row_offset[p]), kernel[p].cut);
   std::vector<Eigen::Index> row_nnz(static_cast<std::size_t>(n));
+  for (std::size_t p = 0; p < parts; ++p) {
+    const Eigen::Index first = op.row_offset[p], last = op.row_offset[p + 1];
 #pragma omp parallel for schedule(dynamic, 256)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    row_nnz[static_cast<std::size_t>(i)] = grid.count_within(op.positions.row(i).transpose(), op.cut);  // with the diagonal
+    for (Eigen::Index i = first; i < last; ++i)  // with the diagonal
+      row_nnz[static_cast<std::size_t>(i)] = grids[p].count_within(op.positions.row(i).transpose(), kernel[p].cut);
   }
   const auto nnz = static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0)));
   detail::check_operator_memory("heat_laplacian (surfaces)", nnz, static_cast<std::size_t>(n), options.memory_limit_bytes,
@@ -194,24 +227,30 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
   if (options.stiffness) detail::allocate(op.A, n, row_nnz);
   SparseMatrix* stiffness = options.stiffness ? &op.A : nullptr;
   std::atomic<bool> mismatch{false};
+  for (std::size_t p = 0; p < parts; ++p) {
+    const Eigen::Index first = op.row_offset[p], last = op.row_offset[p + 1];
+    const Grid& grid = grids[p];
+    const Kernel& kp = kernel[p];
 #pragma omp parallel
-  {
-    RowBuffer found;  // this thread's
-    RowSorter sorter;
+    {
+      RowBuffer found;  // this thread's
+      RowSorter sorter;
 #pragma omp for schedule(dynamic, 64)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      const int begin = op.L.outerIndexPtr()[i];
-      int* col = op.L.innerIndexPtr() + begin;
-      double* d2 = op.L.valuePtr() + begin;  // squared distances, turned into weights by finish_row
-      grid.gather_within(op.positions.row(i).transpose(), op.cut, found);
-      const int count = op.L.outerIndexPtr()[i + 1] - begin;
-      if (found.size != static_cast<std::size_t>(count)) {  // the same test as the count: cannot differ
-        mismatch = true;  // no throw inside a parallel region: reported after it
-        continue;
+      for (Eigen::Index i = first; i < last; ++i) {
+        const int begin = op.L.outerIndexPtr()[i];
+        int* col = op.L.innerIndexPtr() + begin;
+        double* d2 = op.L.valuePtr() + begin;  // squared distances, turned into weights by finish_row
+        grid.gather_within(op.positions.row(i).transpose(), kp.cut, found);
+        const int count = op.L.outerIndexPtr()[i + 1] - begin;
+        if (found.size != static_cast<std::size_t>(count)) {  // the same test as the count: cannot differ
+          mismatch = true;  // no throw inside a parallel region: reported after it
+          continue;
+        }
+        sorter.sort(found, col, d2);  // the part's own rows, then shifted to the operator's
+        for (int k = 0; k < count; ++k) col[k] += static_cast<int>(first);
+        const Eigen::Index diag = std::lower_bound(col, col + count, static_cast<int>(i)) - col;
+        detail::finish_row(op.L, stiffness, i, diag, op.mass, kp.inv_4t, kp.scale);
       }
-      sorter.sort(found, col, d2);
-      const Eigen::Index diag = std::lower_bound(col, col + count, static_cast<int>(i)) - col;
-      detail::finish_row(op.L, stiffness, i, diag, op.mass, inv_4t, scale);
     }
   }
   if (mismatch)

@@ -19,6 +19,11 @@ Eigen::Vector3d SurfelSet::trivial_normal(std::size_t s) const {
   return n;
 }
 
+std::vector<std::size_t> SurfelSet::offsets() const {
+  if (!surface_offset.empty()) return surface_offset;
+  return {0, size()};
+}
+
 Eigen::MatrixX3d SurfelSet::centres() const {
   Eigen::MatrixX3d c(static_cast<Eigen::Index>(size()), 3);
   for (std::size_t s = 0; s < size(); ++s) c.row(static_cast<Eigen::Index>(s)) = centre(s).transpose();
@@ -42,6 +47,28 @@ void for_each_uncovered(const Run* a, const Run* b, const Run* c, const Run* d, 
       ++o;
     }
   }
+}
+}  // namespace
+
+namespace {
+// The surfels of the kept components (all when `keep` is empty) grouped by component, in their
+// order within each (a stable counting sort), with the offsets.
+SurfelSet grouped_by_surface(const SurfelSet& in, const SurfelComponents& components, const std::vector<bool>& keep) {
+  SurfelSet out;
+  out.h = in.h;
+  std::vector<std::size_t> start(components.sizes.size() + 1, 0);
+  for (std::size_t c = 0; c < components.sizes.size(); ++c)
+    start[c + 1] = start[c] + (keep.empty() || keep[c] ? components.sizes[c] : 0);
+  out.surfels.resize(start.back());
+  std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+  for (std::size_t s = 0; s < in.size(); ++s) {
+    const auto c = static_cast<std::size_t>(components.of_surfel[s]);
+    if (keep.empty() || keep[c]) out.surfels[fill[c]++] = in.surfels[s];
+  }
+  out.surface_offset.push_back(0);
+  for (std::size_t c = 0; c < components.sizes.size(); ++c)
+    if (keep.empty() || keep[c]) out.surface_offset.push_back(start[c + 1]);
+  return out;
 }
 }  // namespace
 
@@ -71,7 +98,7 @@ SurfelSet extract_surfels(const VoxelSet& set) {
   for (const auto& row : per_row) total += row.size();
   out.surfels.reserve(total);
   for (const auto& row : per_row) out.surfels.insert(out.surfels.end(), row.begin(), row.end());
-  return out;
+  return grouped_by_surface(out, connected_surfaces(set, out), {});
 }
 
 namespace {
@@ -142,9 +169,7 @@ FilteredSurfels filter_surfels(const VoxelSet& set, const SurfelSet& surfels, co
   for (std::size_t c = 0; c < keep.size(); ++c)
     keep[c] = components.sizes[c] >= filter.min_surfels && (!filter.largest_only || c == largest);
   FilteredSurfels out;
-  out.surfels.h = surfels.h;
-  for (std::size_t s = 0; s < surfels.size(); ++s)
-    if (keep[static_cast<std::size_t>(components.of_surfel[s])]) out.surfels.surfels.push_back(surfels.surfels[s]);
+  out.surfels = grouped_by_surface(surfels, components, keep);
   out.dropped = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), false));
   return out;
 }

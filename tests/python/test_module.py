@@ -287,3 +287,32 @@ def test_surface_pipeline_in_python(tmp_path):
     assert radius.std() / radius.mean() < 0.3 * 0.0234  # the digital staircase's roundness, faired away
     vertices, faces = surface.save_ply(surfels, {"mu": mu.mu}, str(tmp_path / "s.ply"))
     assert faces == len(surfels) and vertices - faces == 2
+
+
+def test_real_label_with_zero_areas_through_the_shared_core(tmp_path):
+    """A real label (JHU white matter, 2 mm, label 6) has surfels of zero area: the spectrum is
+    solved on the support of mu, zero-area rows get the average of their neighbours (L x = 0
+    there), heat flow and export take the surface operator as they take a contour one (issues 21, 22)."""
+    from digilap import surface
+    data = pathlib.Path(__file__).resolve().parents[1] / "data"
+    voxels = surface.read_volume(str(data / "JHU-WhiteMatter-labels-2mm.nii.gz"), label=6)
+    surfels = surface.extract_surfels(voxels)
+    mu = surface.measures(surfels, surface.ii_normals(voxels, surfels))
+    op = surface.heat_laplacian(surfels, mu)
+    assert isinstance(op, digilap.HeatOperator) and op.dimension == 2
+    massless = op.massless_rows()
+    assert len(massless) > 0 and np.all(op.mass[massless] == 0)
+    spectrum = digilap.smallest_eigenpairs(op, 6)
+    assert spectrum.massless == len(massless)
+    x = spectrum.eigenvectors
+    residual = op.A @ x + op.mass[:, None] * x * spectrum.eigenvalues[None, :]
+    assert np.abs(residual).max() < 1e-7 * np.abs(op.A @ x).max()
+    assert np.abs((op.L @ x)[massless]).max() < 1e-12 * np.abs(x).max() * np.abs(op.L.diagonal()[massless]).max()
+    assert np.all(np.isfinite(spectrum.laplace_beltrami))
+    flow = digilap.HeatFlow(op, op.t, digilap.TimeScheme.implicit_euler)
+    u0 = (np.arange(op.rows()) < op.rows() // 5).astype(float)
+    u = flow.advance(u0, 5)
+    assert abs(op.mass @ u - op.mass @ u0) < 1e-12 * (op.mass @ u0) and u.min() >= -1e-14
+    paths = digilap.save_operator(op, str(tmp_path))
+    assert [pathlib.Path(p).name for p in paths] == ["L.mtx", "A.mtx", "M.mtx"]
+    assert abs(scipy.io.mmread(paths[2]).diagonal() - op.mass).max() == 0

@@ -17,18 +17,23 @@
 
 namespace digilap::surface {
 
-/// The operator on the surfels: dimension 2, one part (row_offset = {0, N}, part_t = {t}).
+/// The operator on the surfels: dimension 2, one part per connected surface (row_offset is
+/// SurfelSet::surface_offset, part_t each surface's heat time), or one part of all the surfels
+/// with HeatLaplacianOptions::couple_surfaces.
 struct SurfaceOperator : HeatOperator {
   Eigen::MatrixX3d positions;  ///< surfel centres
   SurfaceOperator() { dimension = 2; }
 };
 
 /// The operator of SPEC §7. From HeatLaplacianOptions: t (0: c_t h^(2/3) l^(4/3), l the
-/// measures' or options.length_scale), c_t, k, stiffness, memory_limit_bytes; distance and
-/// placement do not apply. Neighbours from a uniform grid of cell k sqrt(t) (never all pairs);
-/// rows counted, allocated once, filled in parallel; identical for any thread count. Throws
-/// digilap::Error for bad parameters, Richardson (not available in 3D), mismatched measures,
-/// or an estimated size above the memory limit.
+/// measures' or options.length_scale; each surface its own l_c with per_contour_time), c_t, k,
+/// stiffness, memory_limit_bytes, couple_surfaces; distance and placement do not apply. Only
+/// surfels of the same connected surface interact (unless couple_surfaces): a speck changes
+/// nothing of a large object, two touching structures stay two operators. Neighbours from a
+/// uniform grid of cell k sqrt(t) per surface (never all pairs); rows counted, allocated once,
+/// filled in parallel; identical for any thread count. Throws digilap::Error for bad parameters,
+/// Richardson (not available in 3D), mismatched measures, or an estimated size above the
+/// memory limit.
 SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options = {});
 
 }  // namespace digilap::surface

@@ -12,6 +12,8 @@ struct SurfelMeasures {
   std::size_t clamped = 0;   ///< surfels with <n, n_e> <= 0 (mu = 0)
   double length_scale = 0;   ///< l and R of the normals: the operator's default t follows l
   double normal_radius = 0;
+  /// l_c of each connected surface (SurfelNormals::surface_length_scales; empty when l was given).
+  std::vector<double> surface_length_scales;
   double total_area() const { return mu.sum(); }
 };
 

@@ -8,20 +8,27 @@
 
 #include <Eigen/Core>
 
+#include <vector>
+
 namespace digilap::surface {
 
 struct SurfelNormals {
   Eigen::MatrixX3d normals;  ///< one unit normal per surfel
   double length_scale = 0;   ///< l (0: unknown)
   double radius = 0;         ///< the II ball radius R used (0 for exact normals)
+  /// l_c of each connected surface (surfel order: SurfelSet::surface_offset), from which each
+  /// surface's heat time follows; empty when l was given.
+  std::vector<double> surface_length_scales;
 };
 
 struct SurfaceNormalOptions {
   double k_R = 1.0;           ///< R = k_R h^(1/3) l^(2/3)
-  /// l; 0 measures it: the 2% quantile of 1 / |H| over the surfels (H the II mean curvature,
-  /// H = 8 / (3R) - 4 V / (pi R^4), V the volume of the set in the ball), bounded by 4 voxels
-  /// and the set's equal-volume radius, three rounds as in 2D. Give 1 for R = k_R h^(1/3).
+  /// l; 0 measures it (surface/length_scale.hpp: per surface, the quantile of 1 / |H| over its
+  /// surfels within [4 voxels, its equal-volume radius], l their weighted median). Give 1 for
+  /// R = k_R h^(1/3).
   double length_scale = 0.0;
+  /// Which quantile of the radii of curvature a measured l is.
+  double length_quantile = 0.02;
 };
 
 /// II normals: the eigenvector of the smallest eigenvalue of the covariance of the set's voxel

@@ -21,8 +21,16 @@ struct Surfel {
 struct SurfelSet {
   double h = 1.0;
   std::vector<Surfel> surfels;
+  /// Surfels grouped by connected surface (connected_surfaces), as contours group linels:
+  /// surface c is [surface_offset[c], surface_offset[c + 1]). extract_surfels and filter_surfels
+  /// fill it; empty (a set made by hand) means one surface of all the surfels.
+  std::vector<std::size_t> surface_offset;
 
   std::size_t size() const { return surfels.size(); }
+  /// Number of surfaces (1 for a non-empty set made by hand, whose surface_offset is empty).
+  std::size_t surfaces() const { return surface_offset.empty() ? (surfels.empty() ? 0 : 1) : surface_offset.size() - 1; }
+  /// surface_offset, or {0, size()} for a set made by hand.
+  std::vector<std::size_t> offsets() const;
   /// Centre of surfel s: voxel centre + (h / 2) n_e.
   Eigen::Vector3d centre(std::size_t s) const;
   /// Its trivial (outward, axis-aligned) normal n_e.
@@ -46,14 +54,15 @@ struct SurfelFilter {
   bool largest_only = false;    ///< keep only the surface with the most surfels
 };
 struct FilteredSurfels {
-  SurfelSet surfels;        ///< the kept surfels, in their original order
+  SurfelSet surfels;        ///< the kept surfels, grouped by surface, in their original order within each
   std::size_t dropped = 0;  ///< surfaces dropped
 };
 FilteredSurfels filter_surfels(const VoxelSet& set, const SurfelSet& surfels, const SurfelFilter& filter);
 
-/// Every surfel of the set, row by row ((k, j) ascending, then i): the order depends only on
-/// the set. Parallel over rows; each face found from the runs of the voxel's row and of its
-/// four neighbouring rows (no voxel loop).
+/// Every surfel of the set, grouped by connected surface (surface_offset; surfaces numbered by
+/// their first surfel), row by row within each ((k, j) ascending, then i): the order depends
+/// only on the set. Parallel over rows; each face found from the runs of the voxel's row and of
+/// its four neighbouring rows (no voxel loop).
 SurfelSet extract_surfels(const VoxelSet& set);
 
 }  // namespace digilap::surface
