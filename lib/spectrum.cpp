@@ -108,6 +108,38 @@ Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues,
   return mu;
 }
 
+Eigen::MatrixXd heat_kernel_signature(const Spectrum& s, const std::vector<double>& times) {
+  const bool estimates = s.laplace_beltrami.size() == s.eigenvalues.size();
+  const Eigen::VectorXd& lambda = estimates ? s.laplace_beltrami : s.eigenvalues;
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(s.eigenvectors.rows(), static_cast<Eigen::Index>(times.size()));
+  for (std::size_t c = 0; c < times.size(); ++c) {
+    require_positive("heat_kernel_signature: the time tau", times[c]);
+    for (Eigen::Index k = 0; k < lambda.size(); ++k) {
+      const double decay = std::exp(-std::max(lambda[k], 0.0) * times[c]);  // lambda_0 = 0 up to rounding
+      if (decay > 0) out.col(static_cast<Eigen::Index>(c)) += decay * s.eigenvectors.col(k).cwiseAbs2();
+    }
+  }
+  return out;
+}
+
+std::vector<double> heat_kernel_signature_times(const Spectrum& s, int count) {
+  const bool estimates = s.laplace_beltrami.size() == s.eigenvalues.size();
+  const Eigen::VectorXd& lambda = estimates ? s.laplace_beltrami : s.eigenvalues;
+  double first = 0, last = 0;
+  const double zero = 1e-8 * (lambda.size() > 0 ? std::abs(lambda[lambda.size() - 1]) : 0.0);
+  for (Eigen::Index k = 0; k < lambda.size(); ++k)
+    if (std::isfinite(lambda[k]) && lambda[k] > zero) {
+      if (first == 0) first = lambda[k];
+      last = lambda[k];
+    }
+  if (!(first > 0)) throw Error("heat_kernel_signature_times: the spectrum has no non-zero eigenvalue");
+  if (count < 1) throw Error("heat_kernel_signature_times: count must be >= 1");
+  const double lo = std::log(4 * std::log(10.0) / last), hi = std::log(4 * std::log(10.0) / first);
+  std::vector<double> times(static_cast<std::size_t>(count));
+  for (int c = 0; c < count; ++c) times[static_cast<std::size_t>(c)] = std::exp(count == 1 ? hi : lo + (hi - lo) * c / (count - 1));
+  return times;
+}
+
 double heat_kernel_eigenvalue(int m, double P, double t) {
   const double w = 2 * kPi * m / P, w2 = w * w;
   if (t == 0) return w2;

@@ -49,6 +49,24 @@ std::string npy_cube(int n, int value) {
   return value < 0 ? header : header + std::string(static_cast<std::size_t>(n) * n * n, static_cast<char>(value));
 }
 
+// A 26^3 uint8 segmentation ([z, y, x]): label 1 one voxel, label 2 a thousand one-voxel
+// components (x, y, z even in [4, 22]), label 3 a 3^3 block touching the volume's border.
+std::string npy_labels() {
+  const int n = 26;
+  std::string dict = "{'descr': '|u1', 'fortran_order': False, 'shape': (26, 26, 26), }";
+  dict.append(117 - dict.size(), ' ');
+  std::string data(static_cast<std::size_t>(n) * n * n, '\0');
+  auto at = [&](int x, int y, int z) -> char& { return data[static_cast<std::size_t>((z * n + y) * n + x)]; };
+  at(13, 13, 1) = 1;
+  for (int z = 4; z <= 22; z += 2)
+    for (int y = 4; y <= 22; y += 2)
+      for (int x = 4; x <= 22; x += 2) at(x, y, z) = 2;
+  for (int z = 23; z < n; ++z)
+    for (int y = 23; y < n; ++y)
+      for (int x = 23; x < n; ++x) at(x, y, z) = 3;
+  return std::string("\x93NUMPY\x01\x00\x76\x00", 10) + dict + "\n" + data;
+}
+
 std::string p5(int w, int h, int maxval, int value) {
   std::string s = "P5\n" + std::to_string(w) + " " + std::to_string(h) + "\n" + std::to_string(maxval) + "\n";
   return s + std::string(static_cast<std::size_t>(w) * h, static_cast<char>(value));
@@ -150,6 +168,22 @@ const std::vector<Case> kCases = {
     // the surfel) has a spectrum, solved on the support of mu (JHU white-matter atlas, 2 mm, label 6).
     {"real_label_zero_areas_spectrum", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --label 6 --largest --count 6 --out {dir}/l6", "", true, "20 surfels of zero area"},
     {"real_label_zero_areas_heat", "heat", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --label 6 --largest --tau 2 --steps 4 --out {dir}/l6h", "", true, "| 2 |"},
+    // Issue 22: labels in batch. A failing structure is a column of NaN with its reason, never a
+    // stopped batch: a label absent from the volume, label 0, a one-voxel label; a table of names
+    // that does not parse falls back to label_N with a warning; a thousand components and a label
+    // touching the border are structures like any other.
+    {"batch_absent_label", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 0,6,200 --count 5 --out {dir}/b1", "", true, "| 200 | label_200 | failed: no voxel has the label 200"},
+    {"batch_background_label", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 0,6 --count 5 --out {dir}/b2", "", true, "| 0 | label_0 | failed: label 0 is the background"},
+    {"batch_names_table", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 6 --count 5 --names {data}/JHU-WhiteMatter-labels-2mm.nii.txt --out {dir}/b3", "", true, "| 6 | Fornix_(column_and_body_of_fornix) | ok | 1 | 190 | 20 |"},
+    {"batch_bad_names_table", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 6 --count 5 --names {dir}/batch_bad_names_table.img --out {dir}/b4", "no table here\n\n# a comment\nsix Fornix\n", true, "| 6 | label_6 | ok |"},
+    {"batch_missing_names_table", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 6 --names {dir}/does_not_exist.txt --out {dir}/b5", "", false, "cannot read the table of names"},
+    {"batch_bad_label_list", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --labels 3,x --out {dir}/b6", "", false, "'x' is not a label"},
+    {"batch_one_voxel_label", "spectrum", "--volume {dir}/batch_one_voxel_label.npy --h 1 --labels 1,3 --count 5 --out {dir}/b7", npy_labels(), true, "| 1 | label_1 | failed: every surface has fewer than 8 surfels"},
+    {"batch_thousand_components", "spectrum", "--volume {dir}/batch_thousand_components.npy --h 1 --labels 2 --min-size 0 --count 5 --out {dir}/b8", npy_labels(), true, "| 2 | label_2 | ok | 1000 | 6000 | 0 |"},
+    {"batch_label_at_the_border", "spectrum", "--volume {dir}/batch_label_at_the_border.npy --h 1 --labels all --count 5 --out {dir}/b9", npy_labels(), true, "| 3 | label_3 | ok | 1 | 54 | 0 |"},
+    {"batch_names_without_labels", "spectrum", "--volume {data}/JHU-WhiteMatter-labels-2mm.nii.gz --label 6 --names x.txt", "", false, "go with --labels"},
+    {"batch_needs_a_volume", "spectrum", "--shape sphere --labels all", "", false, "--labels needs a segmentation"},
+    {"negative_label", "spectrum", "--volume {data}/ball.nii.gz --label -5", "", false, "--label"},
     {"volume_kR_covers_object", "operator", "--volume {data}/ball.nii.gz --kR 100", "", false, "is wider than the whole set"},
     {"volume_memory_limit", "operator", "--volume {data}/ball.nii.gz --memory-limit 1000", "", false, "above the memory limit"},
     {"surface_memory_limit", "spectrum", "--shape sphere --memory-limit 1000", "", false, "above the memory limit"},

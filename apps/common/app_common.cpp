@@ -38,11 +38,15 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_option("--centre", o.centre, "Move the shape's centre to X,Y")->delimiter(',')->expected(2);
   app.add_option("--image", o.image, "Binary image instead of a shape: PBM, PGM (8/16 bit) or PNG");
   app.add_option("--volume", o.volume, "A 3-D volume instead of a shape: .npy (bool, uint8, uint16) or NIfTI .nii/.nii.gz (cubic voxels; h defaults to the file's spacing)");
-  app.add_option("--label", o.label, "Volumes: the label of the object (default: every non-zero voxel)");
+  app.add_option("--label", o.label, "Volumes: the label of the object (default: every voxel >= --threshold, 1)")
+      ->check(CLI::NonNegativeNumber);
   if (with_h)
     app.add_option("--h", o.h, "Grid step h (default: 0.01 for shapes, 1/max(width, height) for images)")
         ->check(kPositiveFinite);
-  app.add_option("--threshold", o.threshold, "Images: foreground = value < threshold * maxval")->capture_default_str();
+  app.add_option("--threshold", o.threshold,
+                 "Images: foreground = value < threshold * maxval; volumes without --label: value >= threshold (default 1)")
+      ->each([&o](const std::string&) { o.threshold_given = true; })
+      ->capture_default_str();
   app.add_flag("--invert", o.invert, "Images: foreground = value >= threshold * maxval (light objects)");
   app.add_flag("--largest", o.largest, "Images and volumes: keep the largest contour (surface) only");
   app.add_option("--min-size,--min-linels", o.min_linels,
@@ -182,25 +186,40 @@ bool is_surface_input(const FrontEndOptions& o) {
 }
 
 SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progress) {
-  SurfaceFrontEnd fe;
   progress.start(o.volume.empty() ? "digitize + surfels" : "read volume + surfels");
+  std::unique_ptr<surface::Surface> shape;
+  surface::VoxelSet voxels;
+  std::string name;
   if (o.volume.empty()) {
-    fe.shape = surface::make_surface(o.shape);
+    shape = surface::make_surface(o.shape);
     if (o.rotate_degrees != 0 || !o.centre.empty())
-      fe.shape->set_pose(o.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(o.centre[0], o.centre[1], 0),
-                         Eigen::AngleAxisd(o.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
-    fe.voxels = surface::digitize(*fe.shape, o.h > 0 ? o.h : 0.05);
-    fe.name = fe.shape->name();
+      shape->set_pose(o.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(o.centre[0], o.centre[1], 0),
+                      Eigen::AngleAxisd(o.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+    voxels = surface::digitize(*shape, o.h > 0 ? o.h : 0.05);
+    name = shape->name();
   } else {
     surface::VolumeOptions vo;
     vo.h = o.h;
     vo.label = o.label;
-    fe.voxels = surface::read_volume(o.volume, vo);
-    fe.name = std::filesystem::path(o.volume).filename().string();
+    if (o.threshold_given) vo.threshold = o.threshold;
+    voxels = surface::read_volume(o.volume, vo);
+    name = std::filesystem::path(o.volume).filename().string();
   }
+  SurfaceFrontEnd fe = surface_front_end(std::move(voxels), name, o, progress, true);
+  fe.shape = std::move(shape);
+  return fe;
+}
+
+SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& name, const FrontEndOptions& o, Progress& progress,
+                                  bool started) {
+  if (!started) progress.start("surfels");
+  SurfaceFrontEnd fe;
+  fe.voxels = std::move(voxels);
+  fe.name = name;
   // The connected surfaces, filtered as contours are: --largest, and --min-size in surfels.
   surface::FilteredSurfels kept = surface::filter_surfels(fe.voxels, surface::extract_surfels(fe.voxels), {o.min_linels, o.largest});
   fe.surfels = std::move(kept.surfels);
+  fe.dropped_surfaces = kept.dropped;
   progress.finish();
   if (kept.dropped > 0 && !progress.quiet())
     std::fprintf(stderr, "warning: dropped %zu surface(s)%s\n", kept.dropped,

@@ -27,6 +27,7 @@ struct FrontEndOptions {
   double length_quantile = IINormalOptions{}.length_quantile;
   std::string normals = "ii";   // "ii" (Integral Invariants) or "exact" (reference shapes only)
   double threshold = 0.5;       // images: foreground = value < threshold * maxval ...
+  bool threshold_given = false; // volumes without --label: foreground = value >= threshold when given, else >= 1
   bool invert = false;          // ... or >= with --invert
   bool largest = false;         // images: keep the largest contour only
   std::size_t min_linels = 8;   // images: drop contours with fewer linels (with a warning)
@@ -84,9 +85,14 @@ struct SurfaceFrontEnd {
   surface::SurfelSet surfels;
   surface::SurfelNormals normals;
   surface::SurfelMeasures measures;
+  std::size_t dropped_surfaces = 0;  // by --largest or --min-size
 };
 bool is_surface_input(const FrontEndOptions& options);
 SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& options, Progress& progress);
+/// The same from voxels already read (one structure of a segmentation); `started`: the caller
+/// has a progress stage open that this one finishes.
+SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& name, const FrontEndOptions& options,
+                                  Progress& progress, bool started = false);
 
 /// The heat Laplacian of the front end's contours, timed as the stage "operator".
 ContourOperator build_operator(const FrontEnd& fe, const HeatLaplacianOptions& options, Progress& progress);

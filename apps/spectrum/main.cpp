@@ -3,6 +3,7 @@
 #include "../common/app_common.hpp"
 #include "../common/svg_contour.hpp"
 #include "../common/svg_surface.hpp"
+#include "label_batch.hpp"
 
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 
 using namespace digilap;
 
@@ -97,7 +99,23 @@ int main(int argc, char** argv) {
   bool quiet = false, matrix_free = false, per_contour = false;
   app::add_front_end_options(app, fe_options);
   app::add_operator_options(app, op_options);
-  app.add_option("--count", spectrum_options.count, "Number of eigenpairs")->capture_default_str();
+  auto* count_option = app.add_option("--count", spectrum_options.count, "Number of eigenpairs (50 with --labels)")->capture_default_str();
+  app::LabelBatchOptions batch;
+  std::string labels;
+  app.add_option("--labels", labels,
+                 "Volumes: the spectra of many structures in one run, 'all' or a list with ranges (3,5,10-12); writes\n"
+                 "spectra.csv (one column per structure; rows area, volume, ev0 ...: Laplace-Beltrami estimates),\n"
+                 "spectra_raw.csv and spectra_log.csv; a structure that fails is a column of NaN, its reason in the log");
+  app.add_option("--names", batch.names, "With --labels: a table of names, 'index name ...' or FreeSurfer's LUT");
+  app.add_option("--normalize", batch.normalize, "With --labels: none, surface (lambda area) or volume (lambda volume^(2/3))")
+      ->transform(CLI::CheckedTransformer(std::map<std::string, app::Normalization>{{"none", app::Normalization::None},
+                                                                                    {"surface", app::Normalization::Surface},
+                                                                                    {"volume", app::Normalization::Volume}},
+                                          CLI::ignore_case)
+                      .description(""))
+      ->type_name("{none,surface,volume}")
+      ->default_str("none");
+  app.add_flag("--reweight", batch.reweight, "With --labels: lambda_i / i (ShapeDNA's reweighting)");
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
   app.add_flag("--matrix-free", matrix_free,
                "Never store L: the matrix-free operator (geodesic distance only) and LOBPCG; memory O(N count)");
@@ -108,6 +126,17 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::Progress progress(quiet);
+    if (!labels.empty()) {
+      if (fe_options.volume.empty()) throw Error("--labels needs a segmentation (--volume FILE)");
+      if (fe_options.label >= 0) throw Error("--labels and --label: give one of them");
+      if (matrix_free) throw Error("--matrix-free is for curves");
+      batch.labels = labels;
+      batch.count = count_option->count() > 0 ? spectrum_options.count : 50;
+      app::run_label_batch(fe_options, op_options, batch, out_dir, progress);
+      return 0;
+    }
+    if (!batch.names.empty() || batch.reweight || batch.normalize != app::Normalization::None)
+      throw Error("--names, --normalize and --reweight go with --labels");
     if (app::is_surface_input(fe_options)) {
       if (matrix_free || per_contour) throw Error("--matrix-free and --per-contour are for curves; a surface has one operator");
       return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, progress);

@@ -116,6 +116,18 @@ inline std::vector<Spectrum> smallest_eigenpairs_per_contour(const ContourOperat
 /// not > 0 and finite.
 Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined = nullptr);
 
+/// The heat kernel signature (Sun, Ovsjanikov, Guibas 2009) of every row at each time tau:
+/// HKS(x, tau) = sum_k exp(-lambda_k tau) phi_k(x)^2 over the spectrum's M-orthonormal pairs,
+/// lambda_k its Laplace-Beltrami estimates when it has them (an undefined one, +infinity, adds
+/// nothing), else its eigenvalues. Returns N x times.size(). Throws digilap::Error for a time
+/// not > 0 and finite.
+Eigen::MatrixXd heat_kernel_signature(const Spectrum& spectrum, const std::vector<double>& times);
+
+/// `count` times log-spaced from 4 ln 10 / lambda_last to 4 ln 10 / lambda_1 (the signature's
+/// usual range: the last mode decayed to 1e-4, the first just starting), lambda_1 the first
+/// non-zero eigenvalue. Throws digilap::Error when the spectrum has no non-zero eigenvalue.
+std::vector<double> heat_kernel_signature_times(const Spectrum& spectrum, int count = 5);
+
 /// The heat-kernel operator's eigenvalues on a closed curve of length P with heat time t:
 /// (1 - exp(-omega^2 t)) / t, omega = 2 pi m / P (SPEC §5). With t = 0: omega^2 exactly.
 double heat_kernel_eigenvalue(int m, double P, double t);

@@ -30,10 +30,10 @@ void check_rows(std::int64_t nj, std::int64_t nk) {
 VoxelSet::VoxelSet(double h) : h_(h) { require_positive("voxel set: grid step h", h); }
 
 bool VoxelSet::contains(std::int32_t i, std::int32_t j, std::int32_t k) const {
-  return detail::in_runs(row_begin(j, k), row_end(j, k), i);
+  return digilap::detail::in_runs(row_begin(j, k), row_end(j, k), i);
 }
 
-std::int64_t VoxelSet::voxel_count() const { return detail::run_total(runs_); }
+std::int64_t VoxelSet::voxel_count() const { return digilap::detail::run_total(runs_); }
 
 std::size_t VoxelSet::memory_bytes() const {
   return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);
@@ -51,7 +51,7 @@ VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::in
   set.j0_ = j0, set.k0_ = k0, set.nj_ = nj, set.nk_ = nk;
   set.row_offset_.assign(rows.size() + 1, 0);
   for (std::size_t r = 0; r < rows.size(); ++r) {
-    detail::normalize_runs(rows[r]);
+    digilap::detail::normalize_runs(rows[r]);
     if (!rows[r].empty()) check_index("column i", rows[r].front().begin), check_index("column i", std::int64_t(rows[r].back().end) - 1);
     set.runs_.insert(set.runs_.end(), rows[r].begin(), rows[r].end());
     set.row_offset_[r + 1] = static_cast<std::int64_t>(set.runs_.size());

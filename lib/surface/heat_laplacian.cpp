@@ -221,10 +221,10 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
       row_nnz[static_cast<std::size_t>(i)] = grids[p].count_within(op.positions.row(i).transpose(), kernel[p].cut);
   }
   const auto nnz = static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0)));
-  detail::check_operator_memory("heat_laplacian (surfaces)", nnz, static_cast<std::size_t>(n), options.memory_limit_bytes,
+  digilap::detail::check_operator_memory("heat_laplacian (surfaces)", nnz, static_cast<std::size_t>(n), options.memory_limit_bytes,
                                 options.stiffness, "use a smaller c_t, t or k (for a volume h only sets the units)");
-  detail::allocate(op.L, n, row_nnz);
-  if (options.stiffness) detail::allocate(op.A, n, row_nnz);
+  digilap::detail::allocate(op.L, n, row_nnz);
+  if (options.stiffness) digilap::detail::allocate(op.A, n, row_nnz);
   SparseMatrix* stiffness = options.stiffness ? &op.A : nullptr;
   std::atomic<bool> mismatch{false};
   for (std::size_t p = 0; p < parts; ++p) {
@@ -249,7 +249,7 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
         sorter.sort(found, col, d2);  // the part's own rows, then shifted to the operator's
         for (int k = 0; k < count; ++k) col[k] += static_cast<int>(first);
         const Eigen::Index diag = std::lower_bound(col, col + count, static_cast<int>(i)) - col;
-        detail::finish_row(op.L, stiffness, i, diag, op.mass, kp.inv_4t, kp.scale);
+        digilap::detail::finish_row(op.L, stiffness, i, diag, op.mass, kp.inv_4t, kp.scale);
       }
     }
   }

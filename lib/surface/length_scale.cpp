@@ -17,18 +17,6 @@ constexpr double kFloorVoxels = 4.0;
 constexpr std::size_t kMaxSamples = 20000;
 constexpr int kRounds = 3;
 
-// The volume a closed surface encloses, in voxels: by the divergence theorem with the field
-// (x, 0, 0), the sum over its x-faces of sign (x + sign / 2), i.e. of (2 sign x + 1) / 2. Exact;
-// negative for the surface of a cavity.
-double enclosed_volume(const SurfelSet& surfels, std::size_t first, std::size_t last) {
-  std::int64_t twice = 0;
-  for (std::size_t s = first; s < last; ++s) {
-    const Surfel& f = surfels.surfels[s];
-    if (f.axis == 0) twice += 2 * f.sign * static_cast<std::int64_t>(f.voxel.x()) + 1;
-  }
-  return 0.5 * static_cast<double>(twice);
-}
-
 // The surfels sampled: all up to kMaxSamples, else those whose position relative to the centre
 // of the surfels' bounding box, as sorted absolute doubled coordinates (invariant under the 48
 // signed permutations of the axes), hashes to 0 modulo the stride.
@@ -71,7 +59,8 @@ LengthScale length_scale(const VoxelSet& set, const SurfelSet& surfels, const Le
   std::vector<double> size(surfaces);
   double largest = 0;
   for (std::size_t c = 0; c < surfaces; ++c) {
-    size[c] = std::cbrt(3.0 * std::abs(enclosed_volume(surfels, offset[c], offset[c + 1])) / (4 * kPi));
+    const double voxels = 0.5 * static_cast<double>(surface::detail::twice_enclosed_voxels(surfels, offset[c], offset[c + 1]));
+    size[c] = std::cbrt(3.0 * std::abs(voxels) / (4 * kPi));
     largest = std::max(largest, size[c]);
   }
   LengthScale out;

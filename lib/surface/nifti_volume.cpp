@@ -123,7 +123,20 @@ struct NiftiFree {
 
 }  // namespace
 
-VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
+namespace {
+// A loaded NIfTI volume as a grid of (scaled) values, with its checks done.
+struct NiftiGrid {
+  std::unique_ptr<nifti_image, NiftiFree> nim;
+  std::int64_t nx = 0, ny = 0, nz = 0;
+  double h = 1, slope = 1, inter = 0;
+  bool scaled = false;
+  double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    const double raw = stored_value(*nim, static_cast<std::size_t>((k * ny + j) * nx + i));
+    return scaled ? slope * raw + inter : raw;
+  }
+};
+
+NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   if (!(ends_with(path, ".nii") || ends_with(path, ".nii.gz")))
     refuse(path, "a NIfTI volume is read from a .nii or .nii.gz file");
   if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_nifti_volume: h", o.h);
@@ -168,13 +181,32 @@ VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
   // Scaled values, as NIfTI readers report them, when the file gives a slope.
   const double slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
-  const double h = o.h > 0 ? o.h : has_spacing ? dx : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
-  VoxelSet set = detail::voxel_set_from_grid(h, nx, ny, nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    const double raw = stored_value(*nim, static_cast<std::size_t>((k * ny + j) * nx + i));
-    return detail::is_foreground(o, scaled ? slope * raw + inter : raw);
+  NiftiGrid grid;
+  grid.h = o.h > 0 ? o.h : has_spacing ? dx : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
+  grid.nx = nx, grid.ny = ny, grid.nz = nz, grid.slope = slope, grid.inter = inter, grid.scaled = scaled;
+  grid.nim = std::move(nim);
+  return grid;
+}
+}  // namespace
+
+VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
+  const NiftiGrid grid = open_nifti(path, o);
+  VoxelSet set = detail::voxel_set_from_grid(grid.h, grid.nx, grid.ny, grid.nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return detail::is_foreground(o, grid(i, j, k));
   });
   if (set.empty()) refuse(path, detail::no_foreground_reason(o));
   return set;
+}
+
+std::vector<LabelVoxels> read_nifti_labels(const std::string& path, const VolumeOptions& o) {
+  const NiftiGrid grid = open_nifti(path, o);
+  return detail::label_sets_from_grid(path, grid.h, grid.nx, grid.ny, grid.nz, grid);
+}
+
+std::vector<LabelVoxels> read_labels(const std::string& path, const VolumeOptions& options) {
+  if (ends_with(path, ".npy")) return read_npy_labels(path, options);
+  if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) return read_nifti_labels(path, options);
+  throw Error("cannot read volume '" + path + "': unknown extension (.npy, .nii or .nii.gz)");
 }
 
 VoxelSet read_volume(const std::string& path, const VolumeOptions& options) {

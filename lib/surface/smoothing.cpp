@@ -25,7 +25,7 @@ std::pair<Eigen::RowVector3d, double> centroid_and_rms(const Eigen::MatrixX3d& p
 Eigen::MatrixX3d smooth_positions(const SurfaceOperator& op, const SurfaceSmoothingOptions& o) {
   Eigen::MatrixX3d p = smooth(op, op.positions, o.tau, o.steps);
   if (o.preserve_size)
-    for (const std::vector<Eigen::Index>& rows : detail::connected_components(op.A).rows) {
+    for (const std::vector<Eigen::Index>& rows : digilap::detail::connected_components(op.A).rows) {
       const auto [before_centre, before] = centroid_and_rms(op.positions, op.mass, rows);
       const auto [centre, after] = centroid_and_rms(p, op.mass, rows);
       if (!(after > 0)) continue;  // collapsed to a point: nothing sensible to rescale

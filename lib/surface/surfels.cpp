@@ -24,6 +24,22 @@ std::vector<std::size_t> SurfelSet::offsets() const {
   return {0, size()};
 }
 
+namespace detail {
+std::int64_t twice_enclosed_voxels(const SurfelSet& surfels, std::size_t first, std::size_t last) {
+  // With the field (x, 0, 0): the sum over the x-faces of sign (x + sign / 2) = (2 sign x + 1) / 2 voxels.
+  std::int64_t twice = 0;
+  for (std::size_t s = first; s < last; ++s) {
+    const Surfel& f = surfels.surfels[s];
+    if (f.axis == 0) twice += 2 * f.sign * static_cast<std::int64_t>(f.voxel.x()) + 1;
+  }
+  return twice;
+}
+}  // namespace detail
+
+double enclosed_volume(const SurfelSet& surfels, std::size_t first, std::size_t last) {
+  return 0.5 * static_cast<double>(detail::twice_enclosed_voxels(surfels, first, last)) * surfels.h * surfels.h * surfels.h;
+}
+
 Eigen::MatrixX3d SurfelSet::centres() const {
   Eigen::MatrixX3d c(static_cast<Eigen::Index>(size()), 3);
   for (std::size_t s = 0; s < size(); ++s) c.row(static_cast<Eigen::Index>(s)) = centre(s).transpose();

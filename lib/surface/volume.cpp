@@ -61,7 +61,9 @@ NpyHeader parse_header(const std::string& name, const std::uint8_t* bytes, std::
 
 }  // namespace
 
-VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& o) {
+namespace {
+// The whole .npy file in memory, its header checked against the limit before the data is read.
+std::vector<std::uint8_t> npy_bytes(const std::string& path, const VolumeOptions& o) {
   std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw Error("cannot read volume '" + path + "': cannot open the file (does it exist and is it readable?)");
   const auto file_size = static_cast<std::uint64_t>(in.tellg());
@@ -81,15 +83,33 @@ VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& o) {
   in.seekg(0);
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
   if (static_cast<std::uint64_t>(in.gcount()) != file_size) throw Error("cannot read volume '" + path + "': read error");
-  return decode_npy_volume(bytes.data(), bytes.size(), path, o);
+  return bytes;
 }
 
-VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, const std::string& path, const VolumeOptions& o) {
-  auto fail = [&](const std::string& why) -> VoxelSet { throw Error("cannot read volume '" + path + "': " + why); };
-  const NpyHeader header = parse_header(path, bytes, file_size);
+// A .npy volume in memory as a grid of values, with its checks done: element [a, b, c] is voxel
+// (i, j, k) = (c, b, a).
+struct NpyGrid {
+  const char* data = nullptr;
+  NpyHeader header;
   std::size_t item = 0;
-  if (header.descr == "|b1" || header.descr == "|u1" || header.descr == "<u1") item = 1;
-  else if (header.descr == "<u2") item = 2;
+  std::int64_t nx = 0, ny = 0, nz = 0;
+  double h = 1;
+  double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
+    const std::int64_t a = k, b = j, c = i, n0 = header.shape[0], n1 = header.shape[1], n2 = header.shape[2];
+    const std::int64_t at = header.fortran ? a + n0 * (b + n1 * c) : (a * n1 + b) * n2 + c;
+    if (item == 1) return static_cast<unsigned char>(data[static_cast<std::size_t>(at)]);
+    const auto* p = reinterpret_cast<const unsigned char*>(data) + 2 * at;
+    return p[0] | (p[1] << 8);
+  }
+};
+
+NpyGrid npy_grid(const std::uint8_t* bytes, std::size_t file_size, const std::string& path, const VolumeOptions& o) {
+  auto fail = [&](const std::string& why) -> NpyGrid { throw Error("cannot read volume '" + path + "': " + why); };
+  NpyGrid g;
+  g.header = parse_header(path, bytes, file_size);
+  const NpyHeader& header = g.header;
+  if (header.descr == "|b1" || header.descr == "|u1" || header.descr == "<u1") g.item = 1;
+  else if (header.descr == "<u2") g.item = 2;
   else fail("dtype '" + header.descr + "' is not supported (bool, uint8 or uint16)");
   if (header.shape.size() != 3) fail("a volume needs 3 dimensions, got " + std::to_string(header.shape.size()));
   double voxels = 1;
@@ -97,28 +117,38 @@ VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, con
   if (voxels == 0) fail("the volume is empty (a dimension is 0)");
   if (voxels > static_cast<double>(o.max_voxels))
     fail("its " + detail::count_text(voxels) + " voxels are above the limit of " + std::to_string(o.max_voxels));
-  if (static_cast<double>(header.data_offset) + voxels * static_cast<double>(item) > static_cast<double>(file_size))
+  if (static_cast<double>(header.data_offset) + voxels * static_cast<double>(g.item) > static_cast<double>(file_size))
     fail("truncated: the data holds " + std::to_string(file_size - header.data_offset) + " of " +
-         detail::count_text(voxels * static_cast<double>(item)) + " bytes");
+         detail::count_text(voxels * static_cast<double>(g.item)) + " bytes");
   if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_npy_volume: h", o.h);
   if (!std::isfinite(o.threshold)) fail("the threshold must be finite");
   // Axes as voxel counts along x, y, z: the last array axis is x in C order, the first in Fortran.
-  const std::int64_t n0 = header.shape[0], n1 = header.shape[1], n2 = header.shape[2];
-  const std::int64_t nx = n2, ny = n1, nz = n0;
-  if (std::max({nx, ny, nz}) > kMaxPixelIndex) fail("a dimension is above " + std::to_string(kMaxPixelIndex));
-  const char* data = reinterpret_cast<const char*>(bytes) + header.data_offset;
-  auto value = [&](std::int64_t a, std::int64_t b, std::int64_t c) -> double {  // element [a, b, c]
-    const std::int64_t at = header.fortran ? a + n0 * (b + n1 * c) : (a * n1 + b) * n2 + c;
-    if (item == 1) return static_cast<unsigned char>(data[static_cast<std::size_t>(at)]);
-    const auto* p = reinterpret_cast<const unsigned char*>(data) + 2 * at;
-    return p[0] | (p[1] << 8);
-  };
-  const double h = o.h > 0 ? o.h : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
-  VoxelSet set = detail::voxel_set_from_grid(h, nx, ny, nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
-    return detail::is_foreground(o, value(k, j, i));
+  g.nx = header.shape[2], g.ny = header.shape[1], g.nz = header.shape[0];
+  if (std::max({g.nx, g.ny, g.nz}) > kMaxPixelIndex) fail("a dimension is above " + std::to_string(kMaxPixelIndex));
+  g.data = reinterpret_cast<const char*>(bytes) + header.data_offset;
+  g.h = o.h > 0 ? o.h : 1.0 / static_cast<double>(std::max({g.nx, g.ny, g.nz}));
+  return g;
+}
+}  // namespace
+
+VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& o) {
+  const std::vector<std::uint8_t> bytes = npy_bytes(path, o);
+  return decode_npy_volume(bytes.data(), bytes.size(), path, o);
+}
+
+VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, const std::string& path, const VolumeOptions& o) {
+  const NpyGrid g = npy_grid(bytes, file_size, path, o);
+  VoxelSet set = detail::voxel_set_from_grid(g.h, g.nx, g.ny, g.nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return detail::is_foreground(o, g(i, j, k));
   });
-  if (set.empty()) fail(detail::no_foreground_reason(o));
+  if (set.empty()) throw Error("cannot read volume '" + path + "': " + detail::no_foreground_reason(o));
   return set;
+}
+
+std::vector<LabelVoxels> read_npy_labels(const std::string& path, const VolumeOptions& o) {
+  const std::vector<std::uint8_t> bytes = npy_bytes(path, o);
+  const NpyGrid g = npy_grid(bytes.data(), bytes.size(), path, o);
+  return detail::label_sets_from_grid(path, g.h, g.nx, g.ny, g.nz, g);
 }
 
 }  // namespace digilap::surface

@@ -4,19 +4,25 @@
 
 #include "digilap/surface/digitization.hpp"
 #include "digilap/surface/volume.hpp"
+#include "digilap/error.hpp"
 
-#include <string>
-
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
+#include <map>
+#include <string>
 #include <cstdio>
 #include <utility>
 #include <vector>
 
 namespace digilap::surface::detail {
 
-/// The foreground rule of VolumeOptions: the label when one is given, else the threshold.
+/// The foreground rule of VolumeOptions: the label when one is given (within float rounding:
+/// an int16 label times a float scl_slope, 30 x 0.1 = 3.0000000447, is label 3), else the threshold.
 inline bool is_foreground(const VolumeOptions& o, double value) {
-  return o.label >= 0 ? value == static_cast<double>(o.label) : value >= o.threshold;
+  if (o.label < 0) return value >= o.threshold;
+  const auto label = static_cast<double>(o.label);
+  return std::abs(value - label) <= 1e-6 * std::max(1.0, label);
 }
 /// A count from a header as text: whole below 2^63, else in exponent form (a header may declare
 /// sizes no integer type holds; converting those would be undefined behaviour).
@@ -47,6 +53,44 @@ VoxelSet voxel_set_from_grid(double h, std::int64_t nx, std::int64_t ny, std::in
       }
     }
   return VoxelSet::from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(rows));
+}
+
+/// The integer label a value stands for: the value itself, or the nearest integer when the value
+/// is within float rounding of it (an int16 label times a float scl_slope: 30 x 0.1 =
+/// 3.0000000447). Throws digilap::Error naming the voxel for a value that is no label.
+inline std::int64_t label_of(const std::string& path, double value, std::int64_t i, std::int64_t j, std::int64_t k) {
+  const double nearest = std::round(value);
+  if (std::isfinite(value) && std::abs(value - nearest) <= 1e-6 * std::max(1.0, std::abs(value)) && std::abs(nearest) < 9e15)
+    return static_cast<std::int64_t>(nearest);
+  char where[160];
+  std::snprintf(where, sizeof where, "the value %.9g at voxel (%lld, %lld, %lld) is not an integer label", value,
+                static_cast<long long>(i), static_cast<long long>(j), static_cast<long long>(k));
+  throw Error("cannot read the labels of '" + path + "': " + where + " (a probability or intensity volume: give a threshold instead)");
+}
+
+/// One voxel set per distinct non-zero label of the grid, ascending, in one pass over it.
+template <class Value>
+std::vector<LabelVoxels> label_sets_from_grid(const std::string& path, double h, std::int64_t nx, std::int64_t ny, std::int64_t nz,
+                                              const Value& value) {
+  std::map<std::int64_t, std::vector<std::vector<Run>>> rows;  // label -> its rows of runs
+  const auto row_count = static_cast<std::size_t>(ny * nz);
+  for (std::int64_t k = 0; k < nz; ++k)
+    for (std::int64_t j = 0; j < ny; ++j)
+      for (std::int64_t i = 0; i < nx;) {
+        const std::int64_t label = label_of(path, value(i, j, k), i, j, k);
+        std::int64_t e = i + 1;
+        while (e < nx && value(e, j, k) == value(i, j, k)) ++e;
+        if (label != 0) {
+          auto& own = rows[label];
+          if (own.empty()) own.resize(row_count);
+          own[static_cast<std::size_t>(k * ny + j)].push_back({static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
+        }
+        i = e;
+      }
+  std::vector<LabelVoxels> out;
+  for (auto& [label, own] : rows)
+    out.push_back({label, VoxelSet::from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(own))});
+  return out;
 }
 
 }  // namespace digilap::surface::detail

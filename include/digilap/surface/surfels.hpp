@@ -59,6 +59,17 @@ struct FilteredSurfels {
 };
 FilteredSurfels filter_surfels(const VoxelSet& set, const SurfelSet& surfels, const SurfelFilter& filter);
 
+/// The volume enclosed by the surfels [first, last) (closed surfaces), in the units of h^3: by
+/// the divergence theorem, exact on the voxels (a whole set's surfels give its voxel count
+/// times h^3; the surface of a cavity counts negative).
+double enclosed_volume(const SurfelSet& surfels, std::size_t first, std::size_t last);
+namespace detail {
+/// Twice the enclosed volume in voxels, exactly (an integer).
+std::int64_t twice_enclosed_voxels(const SurfelSet& surfels, std::size_t first, std::size_t last);
+}  // namespace detail
+/// The same for all the surfels.
+inline double enclosed_volume(const SurfelSet& surfels) { return enclosed_volume(surfels, 0, surfels.size()); }
+
 /// Every surfel of the set, grouped by connected surface (surface_offset; surfaces numbered by
 /// their first surfel), row by row within each ((k, j) ascending, then i): the order depends
 /// only on the set. Parallel over rows; each face found from the runs of the voxel's row and of

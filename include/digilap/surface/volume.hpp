@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace digilap::surface {
 
@@ -43,5 +44,21 @@ VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& options
 
 /// read_npy_volume or read_nifti_volume by the file's extension (.npy, .nii, .nii.gz).
 VoxelSet read_volume(const std::string& path, const VolumeOptions& options = {});
+
+/// One structure of a segmentation: its label and its voxels.
+struct LabelVoxels {
+  std::int64_t label = 0;
+  VoxelSet voxels;
+};
+
+/// Every structure of a segmentation at once (the file read once, the grid swept once): one
+/// voxel set per distinct non-zero value, labels ascending; options.label and threshold are not
+/// used. Values within float rounding of an integer are that label (scl_slope products).
+/// Throws digilap::Error as read_volume does, and for a value that is no integer label (naming
+/// the voxel: a probability or intensity volume wants a threshold instead).
+std::vector<LabelVoxels> read_labels(const std::string& path, const VolumeOptions& options = {});
+/// The same for each format.
+std::vector<LabelVoxels> read_nifti_labels(const std::string& path, const VolumeOptions& options = {});
+std::vector<LabelVoxels> read_npy_labels(const std::string& path, const VolumeOptions& options = {});
 
 }  // namespace digilap::surface
