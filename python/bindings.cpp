@@ -47,6 +47,28 @@ py::object csr_view(const SparseMatrix& m, py::handle owner) {
   return csr(py::make_tuple(data, indices, indptr), py::arg("shape") = py::make_tuple(n, n), py::arg("copy") = false);
 }
 
+// A 3-D mask as voxels, in nibabel's convention: volume[i, j, k] is voxel (i, j, k), so that
+// nib.load(f).get_fdata() == 3 gives the voxels of read_volume(f, label=3). Read in place
+// through the array's strides (C or Fortran order, views) for bool and 8-bit masks; with a label,
+// or wider integers, through a boolean copy (one byte a voxel).
+surface::VoxelSet voxels_from_mask(const py::array& volume, double h, py::object label) {
+  if (volume.ndim() != 3)
+    throw py::value_error("from_mask: expected a 3-D array (i, j, k), got " + std::to_string(volume.ndim()) + " dimension(s)");
+  const char kind = volume.dtype().kind();
+  if (kind != 'b' && kind != 'u' && kind != 'i' && (label.is_none() || kind != 'f'))
+    throw py::type_error("from_mask: expected a boolean or integer array (a float one with a label), got dtype " +
+                         py::str(volume.dtype()).cast<std::string>());
+  require_positive("from_mask: h", h);
+  py::array bytes = volume;
+  if (!label.is_none()) bytes = py::array(volume.attr("__eq__")(label));
+  else if (volume.itemsize() != 1) bytes = py::array(volume.attr("astype")("bool"));
+  const auto* base = static_cast<const std::uint8_t*>(bytes.data());
+  const py::ssize_t nx = bytes.shape(0), ny = bytes.shape(1), nz = bytes.shape(2);
+  const py::ssize_t si = bytes.strides(0), sj = bytes.strides(1), sk = bytes.strides(2);
+  py::gil_scoped_release release;
+  return surface::VoxelSet::from_mask(h, base, nx, ny, nz, si, sj, sk);
+}
+
 // A boolean mask (rows x columns, row 0 at the top: the frame of read_image) as a digital set:
 // column c, row r is pixel (c, rows - 1 - r).
 DigitalSet set_from_mask(const py::array& mask, double h) {
@@ -299,6 +321,10 @@ PYBIND11_MODULE(_digilap, m) {
         py::arg("op"), py::arg("count") = 10, Release(),
         "The count smallest eigenpairs of (-A, M) on the support of mu (every copy of repeated ones), with the\n"
         "Laplace-Beltrami estimates; curves and surfaces alike.");
+  m.def("heat_kernel_signature", &heat_kernel_signature, py::arg("spectrum"), py::arg("times"), Release(),
+        "HKS(x, tau) = sum_k exp(-lambda_k tau) phi_k(x)^2 of every row at each time: N x len(times).");
+  m.def("heat_kernel_signature_times", &heat_kernel_signature_times, py::arg("spectrum"), py::arg("count") = 5,
+        "Times log-spaced from 4 ln 10 / lambda_last to 4 ln 10 / lambda_1.");
   m.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
         py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each part (contour, surface) on its own.");
   m.def("smallest_eigenpairs_per_contour", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
@@ -411,10 +437,36 @@ PYBIND11_MODULE(_digilap, m) {
       py::arg("max_voxels") = surface::VolumeOptions{}.max_voxels, Release(),
       "Voxels of a .npy or NIfTI (.nii, .nii.gz) volume: value == label when label >= 0, else value >= "
       "threshold. h = 0: the NIfTI spacing, or 1 / (largest dimension) for .npy. Anisotropic spacing is refused.");
-  py::class_<surface::SurfelSet>(s, "SurfelSet", "The surfels of a voxel set: faces between a voxel inside and one outside.")
+  s.def("from_mask", &voxels_from_mask, py::arg("volume"), py::arg("h") = 1.0, py::arg("label") = py::none(),
+        "Voxels of a 3-D NumPy array: volume[i, j, k] is voxel (i, j, k) (nibabel's convention: get_fdata() == 3 gives\n"
+        "read_volume(f, label=3)); foreground: volume == label when given, else volume != 0. h: the voxel size (1: voxel\n"
+        "units; 1 mm voxels: eigenvalues in mm^-2). Bool and 8-bit arrays are read in place, any order or strides.");
+  py::class_<surface::SurfelSet>(s, "SurfelSet", "The surfels of a voxel set: faces between a voxel inside and one outside,\n"
+                                                  "grouped by connected surface (surface_offset).")
       .def("__len__", &surface::SurfelSet::size)
+      .def_readonly("surface_offset", &surface::SurfelSet::surface_offset)
+      .def("surfaces", &surface::SurfelSet::surfaces)
       .def_property_readonly("centres", &surface::SurfelSet::centres);
   s.def("extract_surfels", &surface::extract_surfels, py::arg("voxels"), Release());
+  s.def("filter_surfels", [](const surface::VoxelSet& v, const surface::SurfelSet& f, std::size_t min_surfels, bool largest_only) {
+        return surface::filter_surfels(v, f, {min_surfels, largest_only}).surfels;
+      }, py::arg("voxels"), py::arg("surfels"), py::arg("min_surfels") = 0, py::arg("largest_only") = false, Release(),
+      "The surfels of the surfaces kept: those with at least min_surfels, or the largest only.");
+  s.def("enclosed_volume", [](const surface::SurfelSet& f) { return surface::enclosed_volume(f); }, py::arg("surfels"),
+        "The volume the surfels enclose, exact on the voxels (h^3 units).");
+  s.def("read_labels", [](const std::string& path, double h) {
+        surface::VolumeOptions o;
+        o.h = h;
+        std::vector<surface::LabelVoxels> labels;
+        {
+          py::gil_scoped_release release;
+          labels = surface::read_labels(path, o);
+        }
+        py::dict out;
+        for (auto& l : labels) out[py::int_(l.label)] = std::move(l.voxels);
+        return out;
+      }, py::arg("path"), py::arg("h") = 0.0,
+      "Every structure of a segmentation (.nii, .nii.gz, .npy) at once: {label: VoxelSet} for each non-zero label.");
   py::class_<surface::SurfelNormals>(s, "SurfelNormals")
       .def_readonly("normals", &surface::SurfelNormals::normals)
       .def_readonly("length_scale", &surface::SurfelNormals::length_scale)
@@ -426,6 +478,9 @@ PYBIND11_MODULE(_digilap, m) {
   py::class_<surface::SurfelMeasures>(s, "SurfelMeasures")
       .def_readonly("mu", &surface::SurfelMeasures::mu)
       .def_readonly("length_scale", &surface::SurfelMeasures::length_scale)
+      .def_readonly("normal_radius", &surface::SurfelMeasures::normal_radius)
+      .def_readonly("clamped", &surface::SurfelMeasures::clamped, "Surfels of zero area (II normal orthogonal to them).")
+      .def_readonly("surface_length_scales", &surface::SurfelMeasures::surface_length_scales)
       .def("total_area", &surface::SurfelMeasures::total_area);
   s.def("measures", &surface::measures, py::arg("surfels"), py::arg("normals"), Release(), "Surfel areas mu = h^2 max(0, <n, n_e>).");
   py::class_<surface::SurfaceOperator, HeatOperator, std::shared_ptr<surface::SurfaceOperator>>(
@@ -433,14 +488,20 @@ PYBIND11_MODULE(_digilap, m) {
       "views; positions N x 3.")
       .def_readonly("positions", &surface::SurfaceOperator::positions);
   s.def("heat_laplacian", [](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
-                             double length_scale, double memory_limit) {
+                             double length_scale, double memory_limit, bool stiffness, bool per_surface_time, bool couple_surfaces) {
         HeatLaplacianOptions o;
         o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
+        o.stiffness = stiffness, o.per_contour_time = per_surface_time, o.couple_surfaces = couple_surfaces;
         return std::shared_ptr<surface::SurfaceOperator>(new surface::SurfaceOperator(surface::heat_laplacian(f, mu, o)));
       }, py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
       py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0,
-      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, Release(),
-      "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j.");
+      py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, py::arg("stiffness") = true,
+      py::arg("per_surface_time") = true, py::arg("couple_surfaces") = false, Release(),
+      "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j,\n"
+      "only between surfels of the same connected surface (couple_surfaces=True: between any), each surface with its\n"
+      "own heat time (per_surface_time=False: one for all).");
+  s.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
+        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each connected surface on its own.");
   s.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
         py::arg("op"), py::arg("count") = 10, Release(),
         "The count smallest eigenpairs of (-A, M) on the support of mu, with Laplace-Beltrami estimates (digilap.smallest_eigenpairs).");

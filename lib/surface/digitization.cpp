@@ -59,6 +59,30 @@ VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::in
   return set;
 }
 
+VoxelSet VoxelSet::from_mask(double h, const std::uint8_t* data, std::int64_t nx, std::int64_t ny, std::int64_t nz,
+                             std::ptrdiff_t stride_i, std::ptrdiff_t stride_j, std::ptrdiff_t stride_k) {
+  require_positive("VoxelSet::from_mask: h", h);
+  if (nx < 1 || ny < 1 || nz < 1) throw Error("VoxelSet::from_mask: the mask is empty (" + std::to_string(nx) + " x " +
+                                              std::to_string(ny) + " x " + std::to_string(nz) + ")");
+  if (std::max({nx, ny, nz}) > kMaxPixelIndex) throw Error("VoxelSet::from_mask: a dimension is above " + std::to_string(kMaxPixelIndex));
+  check_rows(ny, nz);
+  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(ny * nz));
+#pragma omp parallel for schedule(static)
+  for (std::int64_t r = 0; r < ny * nz; ++r) {
+    const std::int64_t j = r % ny, k = r / ny;
+    const std::uint8_t* row = data + j * stride_j + k * stride_k;
+    std::vector<Run>& out = rows[static_cast<std::size_t>(r)];
+    for (std::int64_t i = 0; i < nx;) {
+      if (!row[i * stride_i]) { ++i; continue; }
+      std::int64_t e = i;
+      while (e < nx && row[e * stride_i]) ++e;
+      out.push_back({static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
+      i = e;
+    }
+  }
+  return from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(rows));
+}
+
 VoxelSet VoxelSet::from_voxels(double h, const std::vector<Eigen::Vector3i>& voxels) {
   if (voxels.empty()) return VoxelSet(h);
   Eigen::Vector3i lo = voxels[0], hi = voxels[0];

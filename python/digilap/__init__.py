@@ -1,7 +1,10 @@
-"""digilap: a convergent Laplace-Beltrami operator on the boundary of digitized 2D shapes.
+"""digilap: a convergent Laplace-Beltrami operator on the boundary of digitized shapes.
 
 The pipeline of the C++ library: shape or mask -> digital set -> contours -> normals ->
-measures -> heat-kernel Laplacian, with NumPy arrays and scipy.sparse matrices.
+measures -> heat-kernel Laplacian, with NumPy arrays and scipy.sparse matrices. Curves (2D) are
+here; surfaces of voxel sets (3D: volumes, segmentations) are in ``digilap.surface``. Both
+operators are a ``HeatOperator``, which ``smallest_eigenpairs``, ``HeatFlow``,
+``smooth_function`` and ``save_operator`` take alike.
 
 Sign convention: ``heat_laplacian(...).L`` approximates +Laplace-Beltrami (negative
 semidefinite, like libigl's cotmatrix) and ``A = M L`` is symmetric negative semidefinite.
@@ -49,3 +52,5 @@ def _as_linear_operator(self):
 
 
 MatrixFreeLaplacian.as_linear_operator = _as_linear_operator
+
+from . import surface  # noqa: E402  (the Python module digilap/surface.py, over the C++ submodule)

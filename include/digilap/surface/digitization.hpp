@@ -36,6 +36,12 @@ public:
   /// runs are normalized). Throws digilap::Error for indices out of range.
   static VoxelSet from_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
                             std::vector<std::vector<Run>> rows);
+  /// From a dense mask read in place: voxel (i, j, k), 0 <= i < nx, 0 <= j < ny, 0 <= k < nz, is
+  /// in the set when the byte at data + i stride_i + j stride_j + k stride_k is not 0 (strides
+  /// in bytes, of any order or sign: C or Fortran arrays, views, NumPy's strides as they are).
+  /// Throws digilap::Error for h not > 0 and finite, or sizes out of range.
+  static VoxelSet from_mask(double h, const std::uint8_t* data, std::int64_t nx, std::int64_t ny, std::int64_t nz,
+                            std::ptrdiff_t stride_i, std::ptrdiff_t stride_j, std::ptrdiff_t stride_k);
   /// From a list of voxels (duplicates allowed).
   static VoxelSet from_voxels(double h, const std::vector<Eigen::Vector3i>& voxels);
 
