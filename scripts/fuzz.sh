@@ -19,7 +19,8 @@ flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recov
 clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/png_decode.cpp -o build-fuzz/png_decode.o
 clang++ "${flags[@]}" "${srcs[@]}" tests/fuzz/fuzz_image.cpp build-fuzz/png_decode.o -o build-fuzz/fuzz_image
 volume_srcs=(lib/surface/volume.cpp lib/surface/nifti_volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
-             lib/surface/measures.cpp lib/surface/shapes.cpp lib/digitization.cpp lib/shapes.cpp lib/shape_parameters.cpp)
+             lib/surface/measures.cpp lib/surface/shapes.cpp lib/surface/length_scale.cpp lib/surface/ball_moments.cpp
+             lib/digitization.cpp lib/shapes.cpp lib/shape_parameters.cpp)
 # nifticlib (Debian's, not instrumented) is linked as it is: ASan still sees its heap.
 clang++ "${flags[@]}" -I/usr/include/nifti "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -lnifti2 -lz -o build-fuzz/fuzz_volume
 status=0
