@@ -193,6 +193,27 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
       break;
     }
     if (iteration == max_iterations) break;
+    // Soft locking: the columns whose residual is already below the tolerance add no direction
+    // to W and P. Their residuals and P columns are rounding noise, which the Rayleigh-Ritz step
+    // (columns scaled to unit norm) would otherwise blow up into spurious directions: with a
+    // preconditioner, LOBPCG then stalled just above convergence and ran to max_iterations.
+    std::vector<Eigen::Index> active;
+    for (Eigen::Index c = 0; c < bx; ++c)
+      if (result.residual_norms[c] > tolerance) active.push_back(c);
+    if (static_cast<Eigen::Index>(active.size()) < bx) {
+      Eigen::MatrixXd kept(n, static_cast<Eigen::Index>(active.size()));
+      for (std::size_t c = 0; c < active.size(); ++c) kept.col(static_cast<Eigen::Index>(c)) = r.col(active[c]);
+      r = std::move(kept);
+      if (p.cols() == bx) {
+        Eigen::MatrixXd kept_p(n, static_cast<Eigen::Index>(active.size())), kept_cp(n, static_cast<Eigen::Index>(active.size()));
+        for (std::size_t c = 0; c < active.size(); ++c) {
+          kept_p.col(static_cast<Eigen::Index>(c)) = p.col(active[c]);
+          kept_cp.col(static_cast<Eigen::Index>(c)) = cp.col(active[c]);
+        }
+        p = std::move(kept_p);
+        cp = std::move(kept_cp);
+      }
+    }
     // Preconditioned residuals, made orthogonal to X (twice: once is not enough in floating
     // point when X has nearly converged), then multiplied by C.
     apply_t(r, w);

@@ -22,6 +22,28 @@
 namespace py = pybind11;
 using namespace digilap;
 
+// A file or directory name from Python: a str or any os.PathLike (pathlib.Path), as open() takes.
+struct FilePath {
+  std::string value;
+};
+
+namespace pybind11::detail {
+template <>
+struct type_caster<FilePath> {
+  PYBIND11_TYPE_CASTER(FilePath, const_name("os.PathLike | str"));
+  bool load(handle source, bool) {
+    if (!PyUnicode_Check(source.ptr()) && !PyObject_HasAttrString(source.ptr(), "__fspath__")) return false;
+    object text = reinterpret_steal<object>(PyOS_FSPath(source.ptr()));
+    if (!text || !PyUnicode_Check(text.ptr())) {
+      PyErr_Clear();
+      return false;
+    }
+    value.value = text.cast<std::string>();
+    return true;
+  }
+};
+}  // namespace pybind11::detail
+
 namespace {
 
 using Release = py::call_guard<py::gil_scoped_release>;
@@ -203,8 +225,8 @@ PYBIND11_MODULE(_digilap, m) {
         "A digital set from a 2-D boolean mask (True = foreground), row 0 at the top (the frame of "
         "read_image and of scikit-image): column c, row r is the pixel (c, rows - 1 - r). h = 0 means "
         "1 / max(rows, columns), the mask spanning the unit square.");
-  m.def("read_image", [](const std::string& path, double h, double threshold, bool invert) {
-        const GrayImage image = read_image(path);
+  m.def("read_image", [](const FilePath& path, double h, double threshold, bool invert) {
+        const GrayImage image = read_image(path.value);
         return binarize(image, BinarizeOptions{h, threshold, invert});
       }, py::arg("path"), py::arg("h") = 0.0, py::arg("threshold") = 0.5, py::arg("invert") = false, Release(),
       "Reads a PBM, PGM or PNG file and keeps the pixels darker than threshold * maxval (lighter with invert).");
@@ -392,14 +414,16 @@ PYBIND11_MODULE(_digilap, m) {
       py::arg("operators") = std::vector<std::string>{"geodesic"},
       "The convergence experiment (the paper's Fig. 5): one dict per (h, operator) with the errors against the exact\n"
       "Laplace-Beltrami operator of the test function ('x2', 'xy', 'cos1' .. 'cos9').");
-  m.def("save_operator", [](const ContourOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
+  m.def("save_operator", [](const ContourOperator& op, const FilePath& directory, const std::string& prefix, const std::string& format) {
+        const std::string& dir = directory.value;
         if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
         py::gil_scoped_release release;
         const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
         return save_operator(op, dir, prefix, f);
       }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
       "Writes L, A, M and the element table (Matrix Market + CSV, or .npz).");
-  m.def("save_operator", [](const HeatOperator& op, const std::string& dir, const std::string& prefix, const std::string& format) {
+  m.def("save_operator", [](const HeatOperator& op, const FilePath& directory, const std::string& prefix, const std::string& format) {
+        const std::string& dir = directory.value;
         if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
         py::gil_scoped_release release;
         const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
@@ -428,7 +452,8 @@ PYBIND11_MODULE(_digilap, m) {
   s.def("digitize", &surface::digitize, py::arg("surface"), py::arg("h"), Release(), "Gauss digitization of a surface.");
   s.def(
       "read_volume",
-      [](const std::string& path, double h, std::int64_t label, double threshold, std::int64_t max_voxels) {
+      [](const FilePath& file, double h, std::int64_t label, double threshold, std::int64_t max_voxels) {
+        const std::string& path = file.value;
         surface::VolumeOptions o;
         o.h = h, o.label = label, o.threshold = threshold, o.max_voxels = max_voxels;
         return surface::read_volume(path, o);
@@ -454,7 +479,8 @@ PYBIND11_MODULE(_digilap, m) {
       "The surfels of the surfaces kept: those with at least min_surfels, or the largest only.");
   s.def("enclosed_volume", [](const surface::SurfelSet& f) { return surface::enclosed_volume(f); }, py::arg("surfels"),
         "The volume the surfels enclose, exact on the voxels (h^3 units).");
-  s.def("read_labels", [](const std::string& path, double h) {
+  s.def("read_labels", [](const FilePath& file, double h) {
+        const std::string& path = file.value;
         surface::VolumeOptions o;
         o.h = h;
         std::vector<surface::LabelVoxels> labels;
@@ -511,12 +537,12 @@ PYBIND11_MODULE(_digilap, m) {
       py::arg("steps") = surface::SurfaceSmoothingOptions{}.steps,
       py::arg("preserve_size") = surface::SurfaceSmoothingOptions{}.preserve_size, Release(),
       "Fairing: the surfel centres diffused for time tau (N x 3), rescaled to their RMS size unless preserve_size=False.");
-  s.def("save_ply", [](const surface::SurfelSet& f, const std::map<std::string, Eigen::VectorXd>& fields, const std::string& path) {
+  s.def("save_ply", [](const surface::SurfelSet& f, const std::map<std::string, Eigen::VectorXd>& fields, const FilePath& path) {
         const std::vector<std::pair<std::string, Eigen::VectorXd>> list(fields.begin(), fields.end());
-        const auto size = surface::save_ply(f, list, path);
+        const auto size = surface::save_ply(f, list, path.value);
         return py::make_tuple(size.vertices, size.faces);
       }, py::arg("surfels"), py::arg("fields"), py::arg("path"), "Writes the surfels as a PLY quad mesh with per-surfel fields.");
 
-  m.def("load_matrix_market", &load_matrix_market, py::arg("path"), Release(),
+  m.def("load_matrix_market", [](const FilePath& path) { return load_matrix_market(path.value); }, py::arg("path"), Release(),
         "Reads a Matrix Market coordinate file (general or symmetric) as a scipy-compatible sparse matrix.");
 }

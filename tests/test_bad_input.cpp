@@ -67,6 +67,29 @@ std::string npy_labels() {
   return std::string("\x93NUMPY\x01\x00\x76\x00", 10) + dict + "\n" + data;
 }
 
+// A .npy of shape (6, 6, 6) and dtype `descr` whose 2^3 centre voxels hold `inside` (the bytes of
+// one element, in the file's byte order) and the others zero; `padding` extra characters of a
+// string in the header (NumPy keeps any dict; a long one crashed a recursive regex).
+std::string npy_typed(const std::string& descr, const std::string& inside, std::size_t padding = 0) {
+  std::string dict = "{'descr': '" + descr + "', 'fortran_order': False, 'shape': (6, 6, 6), ";
+  if (padding > 0) dict += "'note': '" + std::string(padding, 'a') + "', ";
+  dict += "}";
+  const std::size_t length = ((10 + dict.size() + 1 + 63) / 64) * 64 - 10;  // data aligned to 64
+  dict.append(length - 1 - dict.size(), ' ');
+  dict += "\n";
+  const char version = length > 65535 ? 2 : 1;
+  std::string head = std::string("\x93NUMPY", 6) + version + '\0';
+  for (int b = 0; b < (version == 2 ? 4 : 2); ++b) head += static_cast<char>((length >> (8 * b)) & 0xff);
+  std::string data;
+  for (int z = 0; z < 6; ++z)
+    for (int y = 0; y < 6; ++y)
+      for (int x = 0; x < 6; ++x) {
+        const bool centre = x >= 2 && x < 4 && y >= 2 && y < 4 && z >= 2 && z < 4;
+        data += centre ? inside : std::string(inside.size(), '\0');
+      }
+  return head + dict + data;
+}
+
 std::string p5(int w, int h, int maxval, int value) {
   std::string s = "P5\n" + std::to_string(w) + " " + std::to_string(h) + "\n" + std::to_string(maxval) + "\n";
   return s + std::string(static_cast<std::size_t>(w) * h, static_cast<char>(value));
@@ -142,20 +165,32 @@ const std::vector<Case> kCases = {
     {"surface_spectrum", "spectrum", "--shape sphere --h 0.2 --count 10 --out {dir}/sphere", "", true, "surfels.ply"},
     {"surface_torus_ring_too_small", "spectrum", "--shape torus:R=0.3,r=1", "", false, "need R > r > 0"},
     {"surface_unknown_key", "spectrum", "--shape ellipsoid:d=2", "", false, "unknown parameter 'd'"},
-    {"surface_matrix_free", "spectrum", "--shape sphere --matrix-free", "", false, "are for curves"},
+    {"surface_matrix_free", "spectrum", "--shape sphere --h 0.2 --count 5 --matrix-free --out {dir}/mf", "", true, ", matrix-free"},
+    {"surface_per_contour", "spectrum", "--shape sphere --per-contour", "", false, "--per-contour is for curves"},
     {"surface_count_too_large", "spectrum", "--shape sphere --h 0.5 --count 500", "", false, "count must be in [1,"},
-    {"volume_spectrum", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --count 5 --out {dir}/vol", "", true, "ball_u1.npy, h = 0.166667"},
+    {"volume_spectrum", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --count 5 --out {dir}/vol", "", true, "ball_u1.npy, h = 1,"},
     {"volume_label_absent", "spectrum", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --label 9", "", false, "no voxel has the label 9"},
     {"volume_missing", "spectrum", "--volume {dir}/none.npy", "", false, "cannot open the file"},
     {"volume_truncated", "spectrum", "--volume {dir}/volume_truncated.npy", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '|u1', 'fortran_order': False, 'shape': (9, 9, 9), }" + std::string(8, ' ') + "\n" + std::string(5, '\1'), false, "truncated: the data holds"},
-    {"volume_wrong_dtype", "spectrum", "--volume {dir}/volume_wrong_dtype.npy", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '<f4', 'fortran_order': False, 'shape': (1, 1, 1), }" + std::string(8, ' ') + "\n" + std::string(4, '\0'), false, "dtype '<f4' is not supported"},
+    {"volume_wrong_dtype", "spectrum", "--volume {dir}/volume_wrong_dtype.npy", std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '<c8', 'fortran_order': False, 'shape': (1, 1, 1), }" + std::string(8, ' ') + "\n" + std::string(8, '\0'), false, "dtype '<c8' is not supported"},
     {"volume_nifti_spectrum", "spectrum", "--volume {data}/ball.nii.gz --count 5 --out {dir}/nii", "", true, "ball.nii.gz, h = 1"},
     {"volume_nifti_anisotropic", "spectrum", "--volume {data}/ball_anisotropic.nii", "", false, "anisotropic voxel spacing 1 x 1 x 2.5 mm: the operator assumes cubic voxels"},
     {"volume_nifti_truncated", "operator", "--volume {dir}/volume_nifti_truncated.nii", file_prefix(DIGILAP_SOURCE_DATA "/../fuzz/volume_corpus/ball_u1.nii", 600), false, "truncated: the data needs 512 bytes from byte 352, the file has 600"},
     {"volume_nifti_corrupt", "operator", "--volume {dir}/volume_nifti_corrupt.nii", "GIF89a" + std::string(400, 'x'), false, "not a NIfTI file"},
     {"volume_unknown_extension", "operator", "--volume {data}/ten_squares.pbm", "", false, "unknown extension (.npy, .nii or .nii.gz)"},
+    {"volume_npy_int32", "spectrum", "--volume {dir}/volume_npy_int32.npy --min-size 0 --count 3 --out {dir}/i4", npy_typed("<i4", std::string("\x01\0\0\0", 4)), true, "N = 24 surfels"},
+    {"volume_npy_int64_label", "spectrum", "--volume {dir}/volume_npy_int64_label.npy --label 300 --min-size 0 --count 3 --out {dir}/i8", npy_typed("<i8", std::string("\x2c\x01\0\0\0\0\0\0", 8)), true, "N = 24 surfels"},
+    {"volume_npy_float64", "spectrum", "--volume {dir}/volume_npy_float64.npy --threshold 0.5 --min-size 0 --count 3 --out {dir}/f8", npy_typed("<f8", std::string("\0\0\0\0\0\0\xf0\x3f", 8)), true, "N = 24 surfels"},
+    {"volume_npy_float32_big_endian", "spectrum", "--volume {dir}/volume_npy_float32_big_endian.npy --min-size 0 --count 3 --out {dir}/f4", npy_typed(">f4", std::string("\x3f\x80\0\0", 4)), true, "N = 24 surfels"},
+    {"volume_npy_negative_int16", "spectrum", "--volume {dir}/volume_npy_negative_int16.npy --min-size 0", npy_typed("<i2", std::string("\xff\xff", 2)), false, "no voxel reaches the threshold"},
+    {"volume_npy_nan", "spectrum", "--volume {dir}/volume_npy_nan.npy --min-size 0", npy_typed("<f4", std::string("\0\0\xc0\x7f", 4)), false, "voxel (2, 2, 2) is NaN"},
+    {"volume_npy_float16", "spectrum", "--volume {dir}/volume_npy_float16.npy", npy_typed("<f2", std::string("\0\x3c", 2)), false, "dtype '<f2' is not supported"},
+    {"volume_npy_long_header_string", "spectrum", "--volume {dir}/volume_npy_long_header_string.npy --min-size 0 --count 3 --out {dir}/long", npy_typed("|u1", "\x01", 40000), true, "N = 24 surfels"},
+    {"volume_npy_default_h_is_the_voxel", "spectrum", "--volume {dir}/volume_npy_default_h_is_the_voxel.npy --min-size 0 --count 3 --out {dir}/u1", npy_typed("|u1", "\x01"), true, "h = 1, N = 24 surfels"},
+    {"memory_limit_nan", "operator", "--shape circle --memory-limit nan", "", false, "--memory-limit must be a number of bytes > 0"},
+    {"memory_limit_negative", "spectrum", "--shape sphere --memory-limit -5", "", false, "--memory-limit must be a number of bytes > 0"},
     {"volume_empty", "spectrum", "--volume {dir}/volume_empty.npy", npy_cube(6, 0), false, "no voxel reaches the threshold"},
-    {"volume_all_foreground", "spectrum", "--volume {dir}/volume_all_foreground.npy --count 3 --out {dir}/full", npy_cube(6, 1), true, "volume_all_foreground.npy, h = 0.166667"},
+    {"volume_all_foreground", "spectrum", "--volume {dir}/volume_all_foreground.npy --count 3 --out {dir}/full", npy_cube(6, 1), true, "volume_all_foreground.npy, h = 1,"},
     {"volume_single_voxel_dropped", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy", "", false, "every surface has fewer than 8 surfels: lower --min-size"},
     {"volume_single_voxel_kept", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy --min-linels 0 --out {dir}/one", "", true, "N = 6 surfels, nnz(L) = 36, area 6"},
     {"volume_size_above_limit", "operator", "--volume {dir}/volume_size_above_limit.npy", npy_cube(2000, -1), false, "voxels are above the limit"},

@@ -408,7 +408,7 @@ TEST(Surface, NpyVolumesReadBackTheVoxels) {
   }
   const VoxelSet slab = read_npy_volume(write("labels.npy", npy("<u2", false, {24, 24, 24}, labels)), VolumeOptions{0, 7});
   EXPECT_EQ(slab.voxel_count(), 2 * n * n - 0);  // c = 0, 1: every (a, b) outside the sphere
-  EXPECT_DOUBLE_EQ(slab.h(), 1.0 / 24);
+  EXPECT_DOUBLE_EQ(slab.h(), 1.0);  // voxel units by default: padding changes nothing
 }
 
 // Every malformed or unsupported file is refused with the file and the reason.
@@ -419,7 +419,10 @@ TEST(Surface, BadNpyVolumesAreRefused) {
       {"GIF89a....", "not a .npy file"},
       {npy("|u1", false, {2, 2, 2}, "\1\1\1"), "truncated: the data holds 3 of 8 bytes"},
       {npy("|u1", false, {4, 2}, cube), "a volume needs 3 dimensions, got 2"},
-      {npy("<f8", false, {1, 1, 1}, std::string(8, '\0')), "dtype '<f8' is not supported"},
+      {npy("<c16", false, {1, 1, 1}, std::string(16, '\0')), "dtype '<c16' is not supported"},
+      {npy("<f8", false, {1, 1, 1}, std::string("\0\0\0\0\0\0\xf8\x7f", 8)), "voxel (0, 0, 0) is NaN"},
+      {std::string("\x93NUMPY\x01\x00\x40\x00", 10) + "{'descr': '|u1', 'fortran_order': False, 'shape': (-2, 2, 2), }   \n",
+       "the dimension '-' is not a size"},
       {npy("|u1", false, {2, 0, 2}, ""), "the volume is empty"},
       {npy("|u1", false, {2, 2, 2}, std::string(8, '\0')), "no voxel reaches the threshold"},
       {npy("|u1", false, {100000, 100000, 100000}, ""), "above the limit"},

@@ -3,6 +3,7 @@
 #include "digilap/surface/volume.hpp"
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -83,6 +84,12 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
       ->type_name("{pointels,linels}")
       ->default_str("pointels");
   app.add_option("--memory-limit", o.memory_limit_bytes, "Refuse operators estimated larger than this many bytes")
+      ->check(CLI::Validator(
+          [](std::string& text) {
+            const double v = std::strtod(text.c_str(), nullptr);
+            return v > 0 ? std::string() : "--memory-limit must be a number of bytes > 0 (inf for none), got " + text;
+          },
+          "BYTES > 0"))
       ->capture_default_str();
   app.add_flag("--one-heat-time{false}", o.per_contour_time,
                "Geodesic: one t for all contours, from the set's l (default: each contour's own l_c)");

@@ -6,6 +6,7 @@
 #include "label_batch.hpp"
 
 #include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/ply.hpp"
 #include "digilap/surface/volume.hpp"
 
@@ -20,11 +21,26 @@ using namespace digilap;
 
 namespace {
 
+// A bar for LOBPCG: the residual's way down from its first value to the tolerance, on a log
+// scale (the solver reports the largest wanted residual over the tolerance each iteration).
+struct LobpcgBar {
+  bool shown = false;
+  double first = 0;
+};
+void attach_bar(SpectrumOptions& o, app::Progress& progress, LobpcgBar& bar) {
+  o.progress = [&progress, &bar](int iteration, double residual) {
+    bar.shown = true;
+    if (iteration == 0) bar.first = std::max(residual, 1.0 + 1e-9);
+    const double done = std::log(bar.first / std::max(residual, 1.0)) / std::log(bar.first);
+    progress.bar("eigenpairs (LOBPCG)", std::clamp(done, 0.0, 1.0));
+  };
+}
+
 // The 3D path (SPEC §7): surface -> voxels -> surfels -> II normals -> areas -> operator ->
 // the smallest eigenpairs of (A, M); a table, eigenvalues.csv, surfels.ply (mu and the
 // eigenvectors per surfel) and eigenvectors.svg.
 int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions& op_options, SpectrumOptions spectrum_options,
-                     const std::string& out_dir, int draw, app::Progress& progress) {
+                     const std::string& out_dir, int draw, bool matrix_free, app::Progress& progress) {
   const app::SurfaceFrontEnd sfe = app::run_surface_front_end(fe, progress);
   const surface::SurfelSet& surfels = sfe.surfels;
   const surface::SurfelNormals& normals = sfe.normals;
@@ -32,16 +48,31 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   const std::string& name = sfe.name;
   const double h = sfe.voxels.h();
   const surface::SurfelMeasures& mu = sfe.measures;
-  progress.start("operator");
-  const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
-  progress.finish();
-  progress.start("eigenpairs");
-  const Spectrum s = smallest_eigenpairs(op, spectrum_options);
-  progress.finish();
+  // The assembled operator, or (--matrix-free) products computed on the fly in O(N) memory.
+  Spectrum s;
+  double t = 0;
+  LobpcgBar bar;
+  attach_bar(spectrum_options, progress, bar);
+  spectrum_options.memory_limit_bytes = op_options.memory_limit_bytes;  // --memory-limit covers the blocks
+  if (matrix_free) {
+    progress.start("matrix-free operator");
+    const surface::MatrixFreeSurfaceOperator op(surfels, mu, op_options);
+    progress.finish();
+    s = smallest_eigenpairs(op, spectrum_options);
+    t = op.t();
+  } else {
+    progress.start("operator");
+    const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, op_options);
+    progress.finish();
+    s = smallest_eigenpairs(op, spectrum_options);
+    t = op.t;
+  }
+  if (bar.shown) progress.end_bar();
   const Eigen::VectorXd& lb = s.laplace_beltrami;
-  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g\n", name.c_str(), h,
-              static_cast<long>(op.rows()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
-              mu.normal_radius, op.t);
+  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g%s\n", name.c_str(), h,
+              static_cast<long>(surfels.size()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
+              mu.normal_radius, t, matrix_free ? ", matrix-free" : "");
+  std::printf("# eigen-solver: %d iterations, %d products\n", s.iterations, s.operations);
   if (s.massless > 0)
     std::printf("# %ld surfels of zero area (II normal orthogonal to the surfel): off the support of mu, their "
                 "eigenvector entries the heat-kernel average of their neighbours\n", static_cast<long>(s.massless));
@@ -73,6 +104,19 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
     char title[64];
     std::snprintf(title, sizeof title, "phi_%ld, mu = %.4g", static_cast<long>(k), lb[k]);
     if (static_cast<int>(panels.size()) < draw) panels.push_back({title, s.eigenvectors.col(k)});
+  }
+  // The heat kernel signature at five log-spaced times (issue 22): hks_1 ... hks_5 per surfel.
+  bool has_nonzero = false;
+  for (Eigen::Index k = 1; k < lb.size(); ++k) has_nonzero = has_nonzero || (std::isfinite(lb[k]) && lb[k] > 0);
+  if (has_nonzero) {
+    const std::vector<double> taus = heat_kernel_signature_times(s, 5);
+    const Eigen::MatrixXd hks = heat_kernel_signature(s, taus);
+    std::printf("# surfels.ply: hks_c = heat kernel signature sum_k exp(-mu_k tau_c) phi_k^2, tau =");
+    for (std::size_t c = 0; c < taus.size(); ++c) {
+      fields.emplace_back("hks_" + std::to_string(c + 1), hks.col(static_cast<Eigen::Index>(c)));
+      std::printf(" %.4g", taus[c]);
+    }
+    std::printf("\n");
   }
   surface::save_ply(surfels, fields, out_dir + "/surfels.ply");
   if (!panels.empty())
@@ -118,7 +162,7 @@ int main(int argc, char** argv) {
   app.add_flag("--reweight", batch.reweight, "With --labels: lambda_i / i (ShapeDNA's reweighting)");
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
   app.add_flag("--matrix-free", matrix_free,
-               "Never store L: the matrix-free operator (geodesic distance only) and LOBPCG; memory O(N count)");
+               "Never store L: products computed on the fly and LOBPCG; memory O(N count) (curves: geodesic distance only)");
   app.add_flag("--per-contour", per_contour,
                "The spectrum of each contour on its own (one table per contour; the shape descriptor of each object)");
   app::add_output_options(app, out_dir, quiet);
@@ -138,8 +182,8 @@ int main(int argc, char** argv) {
     if (!batch.names.empty() || batch.reweight || batch.normalize != app::Normalization::None)
       throw Error("--names, --normalize and --reweight go with --labels");
     if (app::is_surface_input(fe_options)) {
-      if (matrix_free || per_contour) throw Error("--matrix-free and --per-contour are for curves; a surface has one operator");
-      return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, progress);
+      if (per_contour) throw Error("--per-contour is for curves (per-surface spectra: smallest_eigenpairs_per_part)");
+      return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, matrix_free, progress);
     }
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     // What the tables and files need, from either operator.
@@ -154,20 +198,12 @@ int main(int argc, char** argv) {
       progress.start("matrix-free operator");
       const MatrixFreeLaplacian op(fe.contours, fe.measures, op_options);
       progress.finish();
-      // A bar for the iteration: the residual's way down from its first value to the
-      // tolerance, on a log scale.
       spectrum_options.memory_limit_bytes = op_options.memory_limit_bytes;  // --memory-limit covers the blocks
-      double first_residual = 0;
-      bool bar_shown = false;
-      spectrum_options.progress = [&](int iteration, double residual) {
-        bar_shown = true;
-        if (iteration == 0) first_residual = std::max(residual, 1.0 + 1e-9);
-        const double done = std::log(first_residual / std::max(residual, 1.0)) / std::log(first_residual);
-        progress.bar("eigenpairs (LOBPCG)", std::clamp(done, 0.0, 1.0));
-      };
+      LobpcgBar bar;
+      attach_bar(spectrum_options, progress, bar);
       if (per_contour) spectra = smallest_eigenpairs_per_contour(op, spectrum_options);
       else spectra = {smallest_eigenpairs(op, spectrum_options)};
-      if (bar_shown) progress.end_bar();
+      if (bar.shown) progress.end_bar();
       positions = op.positions();
       arclength = op.arclength();
       row_offset = op.row_offset();

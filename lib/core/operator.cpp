@@ -25,6 +25,8 @@ double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffne
 namespace detail {
 void check_operator_memory(const std::string& who, std::size_t nonzeros, std::size_t rows, double limit, bool stiffness,
                            const std::string& advice) {
+  if (!(limit > 0))  // NaN compares false everywhere: it would disable the check silently
+    throw Error(who + ": the memory limit must be > 0 bytes (infinity for none), got " + std::to_string(limit));
   const double bytes = heat_laplacian_bytes(nonzeros, rows, stiffness);
   const bool too_many = nonzeros > static_cast<std::size_t>(std::numeric_limits<int>::max());
   if (bytes <= limit && !too_many) return;

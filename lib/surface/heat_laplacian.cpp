@@ -2,6 +2,7 @@
 
 #include "digilap/error.hpp"
 #include "../row_assembly.hpp"
+#include "surfel_grid.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -13,166 +14,42 @@
 
 namespace digilap::surface {
 
-namespace {
-constexpr double kPi = 3.14159265358979323846;
+using detail::Grid;
+using detail::Kernel;
+using detail::PartLayout;
+using detail::RowBuffer;
+using detail::RowSorter;
 
-// A row's columns and squared distances, before sorting (one per thread, reused).
-struct RowBuffer {
-  std::vector<int> col;
-  std::vector<double> d2;
-  std::size_t size = 0;
-  void reserve(std::size_t n) {
-    if (col.size() < n) col.resize(2 * n), d2.resize(2 * n);
+PartLayout part_layout(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options) {
+  const auto n = static_cast<Eigen::Index>(surfels.size());
+  PartLayout layout;
+  // The parts: the connected surfaces, or all surfels together when they are coupled.
+  if (options.couple_surfaces) {
+    layout.row_offset = {0, n};
+  } else {
+    for (std::size_t offset : surfels.offsets()) layout.row_offset.push_back(static_cast<Eigen::Index>(offset));
   }
-};
-
-// Uniform grid over the surfel centres, cell = a quarter of the cut (coarser when that would
-// make more than about 8 cells per surfel), items sorted by row within each cell, with their
-// coordinates stored contiguously in the same order, one array per axis: the search reads
-// memory in sequence (reading rows of the column-major position matrix made it cache-bound).
-struct Grid {
-  Eigen::Vector3d origin;
-  double cell = 1;
-  int reach = 4;  // cells scanned on each side: ceil(cut / cell)
-  Eigen::Index nx = 1, ny = 1, nz = 1;
-  std::vector<Eigen::Index> start, items;
-  std::vector<double> xs, ys, zs;
-
-  Grid(const Eigen::MatrixX3d& p, double cut) {
-    const Eigen::Index n = p.rows();
-    origin = p.colwise().minCoeff().transpose();
-    const Eigen::Vector3d extent = p.colwise().maxCoeff().transpose() - origin;
-    cell = 0.25 * cut;
-    while ((extent.x() / cell + 1) * (extent.y() / cell + 1) * (extent.z() / cell + 1) > 8.0 * static_cast<double>(n) + 64) cell *= 2;
-    nx = static_cast<Eigen::Index>(extent.x() / cell) + 1;
-    ny = static_cast<Eigen::Index>(extent.y() / cell) + 1;
-    nz = static_cast<Eigen::Index>(extent.z() / cell) + 1;
-    start.assign(static_cast<std::size_t>(nx * ny * nz + 1), 0);
-    for (Eigen::Index r = 0; r < n; ++r) ++start[static_cast<std::size_t>(cell_of(p.row(r)) + 1)];
-    std::partial_sum(start.begin(), start.end(), start.begin());
-    items.resize(static_cast<std::size_t>(n));
-    std::vector<Eigen::Index> fill(start.begin(), start.end() - 1);
-    for (Eigen::Index r = 0; r < n; ++r) items[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of(p.row(r)))]++)] = r;
-    reach = static_cast<int>(std::ceil(cut / cell));
-    xs.resize(items.size()), ys.resize(items.size()), zs.resize(items.size());
-    for (std::size_t it = 0; it < items.size(); ++it) xs[it] = p(items[it], 0), ys[it] = p(items[it], 1), zs[it] = p(items[it], 2);
-  }
-  Eigen::Index index(double v, double o, Eigen::Index count) const {
-    return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
-  }
-  Eigen::Index cell_of(const Eigen::RowVector3d& q) const {
-    return (index(q.z(), origin.z(), nz) * ny + index(q.y(), origin.y(), ny)) * nx + index(q.x(), origin.x(), nx);
-  }
-  // f(first, last) for the item ranges that may hold points within `cut` of q: per (y, z) row
-  // of cells, the x-cells of the ball's chord at the row's nearest point (a row's cells are
-  // contiguous in the item order).
-  template <class F>
-  void for_candidates(const Eigen::Vector3d& q, double cut, F&& f) const {
-    const Eigen::Index cy = index(q.y(), origin.y(), ny), cz = index(q.z(), origin.z(), nz);
-    auto gap = [&](Eigen::Index c, double v, double o) {  // distance from v to cell c's interval
-      const double a = o + static_cast<double>(c) * cell;
-      return v < a ? a - v : std::max(0.0, v - (a + cell));
-    };
-    for (Eigen::Index z = std::max<Eigen::Index>(0, cz - reach); z <= std::min(nz - 1, cz + reach); ++z) {
-      const double gz = gap(z, q.z(), origin.z());
-      for (Eigen::Index y = std::max<Eigen::Index>(0, cy - reach); y <= std::min(ny - 1, cy + reach); ++y) {
-        const double gy = gap(y, q.y(), origin.y()), chord2 = cut * cut - gz * gz - gy * gy;
-        if (chord2 < 0) continue;
-        const double chord = std::sqrt(chord2);
-        const Eigen::Index row = (z * ny + y) * nx;
-        f(start[static_cast<std::size_t>(row + index(q.x() - chord, origin.x(), nx))],
-          start[static_cast<std::size_t>(row + index(q.x() + chord, origin.x(), nx) + 1)]);
-      }
-    }
-  }
-  // Squared distance from q to item `it`, as (x_j - x_i)^2 + (y_j - y_i)^2 + (z_j - z_i)^2:
-  // the same bits for (i, j) and (j, i), since x_i - x_j = -(x_j - x_i) exactly, in both passes.
-  double distance2(const Eigen::Vector3d& q, Eigen::Index it) const {
-    const auto k = static_cast<std::size_t>(it);
-    const double dx = xs[k] - q.x(), dy = ys[k] - q.y(), dz = zs[k] - q.z();
-    return dx * dx + dy * dy + dz * dz;
-  }
-  // The number of points within `cut` of q, q's own included (branch-free).
-  Eigen::Index count_within(const Eigen::Vector3d& q, double cut) const {
-    Eigen::Index count = 0;
-    const double cut2 = cut * cut;
-    for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
-      Eigen::Index c = 0;
-      for (Eigen::Index it = first; it < last; ++it) c += distance2(q, it) <= cut2;
-      count += c;
-    });
-    return count;
-  }
-  // The points within `cut` of q (q's own included, at d2 = 0) appended to `found` with their
-  // squared distances, in cell order. Branch-free: every candidate is written and the end moves
-  // on when it is within the cut.
-  void gather_within(const Eigen::Vector3d& q, double cut, RowBuffer& found) const {
-    const double cut2 = cut * cut;
-    found.size = 0;
-    for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
-      found.reserve(found.size + static_cast<std::size_t>(last - first));
-      int* col = found.col.data();
-      double* d2 = found.d2.data();
-      std::size_t k = found.size;
-      for (Eigen::Index it = first; it < last; ++it) {
-        const double d = distance2(q, it);
-        col[k] = static_cast<int>(items[static_cast<std::size_t>(it)]), d2[k] = d;
-        k += d <= cut2;
-      }
-      found.size = k;
-    });
-  }
-};
-
-// Sorts a row's distinct columns, all in [lo, hi], with their squared distances, by marking the
-// columns in a bitmap over [lo, hi] (the distances parked at the same offsets) and reading it
-// back in order: count + (hi - lo) / 64 steps against count log(count)
-// for a comparison sort. A row holds thousands of columns over a range of a few thousand to N,
-// so the bitmap is a few hundred words (docs/benchmarks.md has the assembly before and after).
-class RowSorter {
-public:
-  /// Writes the row's columns in ascending order to col, with their distances to d2.
-  void sort(const RowBuffer& row, int* col, double* d2) {
-    const int* in = row.col.data();
-    const auto count = static_cast<std::ptrdiff_t>(row.size);
-    const int lo = *std::min_element(in, in + count), hi = *std::max_element(in, in + count);
-    const std::size_t words = static_cast<std::size_t>(hi - lo) / 64 + 1;
-    if (marks_.size() < words) marks_.resize(words, 0), parked_.resize(64 * words);
-    for (std::ptrdiff_t k = 0; k < count; ++k) {
-      const auto at = static_cast<std::size_t>(in[k] - lo);
-      marks_[at / 64] |= std::uint64_t{1} << (at % 64);
-      parked_[at] = row.d2[static_cast<std::size_t>(k)];
-    }
-    std::ptrdiff_t k = 0;
-    for (std::size_t w = 0; w < words; ++w) {
-      for (std::uint64_t bits = marks_[w]; bits != 0; bits &= bits - 1) {
-        const std::size_t at = 64 * w + static_cast<std::size_t>(__builtin_ctzll(bits));
-        col[k] = lo + static_cast<int>(at), d2[k++] = parked_[at];
-      }
-      marks_[w] = 0;
-    }
-  }
-
-private:
-  std::vector<std::uint64_t> marks_;
-  std::vector<double> parked_;
-};
-}  // namespace
-
-namespace {
-// The kernel of one heat time: its cut, 1 / (4t) and prefactor 1 / (4 pi t^2), checked finite.
-struct Kernel {
-  double t, cut, inv_4t, scale;
-  Kernel(double t_, double k) : t(t_), cut(k * std::sqrt(t_)), inv_4t(1 / (4 * t_)), scale(1 / (4 * kPi * t_ * t_)) {
-    if (!std::isfinite(scale) || !std::isfinite(cut) || !std::isfinite(inv_4t)) {  // t from extreme h, l or c_t
-      std::ostringstream msg;
-      msg << "heat_laplacian (surfaces): the heat time t = " << t << " gives a kernel prefactor 1 / (4 pi t^2) = " << scale
-          << " and a cut " << cut << ": one is not a finite number; give a t (or an h) in a usable range";
-      throw Error(msg.str());
-    }
-  }
-};
-}  // namespace
+  const std::vector<Eigen::Index>& offset = layout.row_offset;
+  const std::size_t parts = offset.size() - 1;
+  // Each part's heat time: its own l_c as contours have, unless t or l is given or one is asked.
+  const bool own_l = parts > 0 && !options.couple_surfaces && options.per_contour_time && options.t == 0 && options.length_scale == 0 &&
+                     measures.surface_length_scales.size() == parts;
+  for (std::size_t p = 0; p < parts; ++p)
+    layout.kernel.emplace_back(heat_time(surfels.h, options, own_l ? measures.surface_length_scales[p] : measures.length_scale),
+                               options.k);
+  if (parts == 0) layout.kernel.emplace_back(heat_time(surfels.h, options, measures.length_scale), options.k);
+  std::size_t largest = 0;  // the part with the most rows: its t is the operator's t
+  for (std::size_t p = 0; p < parts; ++p)
+    if (offset[p + 1] - offset[p] > offset[largest + 1] - offset[largest]) largest = p;
+  layout.t = layout.kernel[largest].t;
+  layout.cut = layout.kernel[largest].cut;
+  layout.length_scale = options.t != 0              ? 0.0
+                        : options.length_scale != 0 ? options.length_scale
+                        : own_l                     ? measures.surface_length_scales[largest]
+                                                    : measures.length_scale;
+  for (std::size_t p = 0; p < parts; ++p) layout.part_t.push_back(layout.kernel[p].t);
+  return layout;
+}
 
 SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options) {
   if (options.richardson) throw Error("heat_laplacian (surfaces): Richardson extrapolation is not available in 3D");
@@ -183,31 +60,14 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
   SurfaceOperator op;
   op.positions = surfels.centres();
   op.mass = measures.mu;
-  // The parts: the connected surfaces, or all surfels together when they are coupled.
-  op.row_offset.clear();
-  if (options.couple_surfaces) {
-    op.row_offset = {0, n};
-  } else {
-    for (std::size_t offset : surfels.offsets()) op.row_offset.push_back(static_cast<Eigen::Index>(offset));
-  }
+  const PartLayout layout = part_layout(surfels, measures, options);
+  op.row_offset = layout.row_offset;
+  const std::vector<Kernel>& kernel = layout.kernel;
   const std::size_t parts = op.row_offset.size() - 1;
-  // Each part's heat time: its own l_c as contours have, unless t or l is given or one is asked.
-  const bool own_l = parts > 0 && !options.couple_surfaces && options.per_contour_time && options.t == 0 && options.length_scale == 0 &&
-                     measures.surface_length_scales.size() == parts;
-  std::vector<Kernel> kernel;
-  for (std::size_t p = 0; p < parts; ++p)
-    kernel.emplace_back(heat_time(surfels.h, options, own_l ? measures.surface_length_scales[p] : measures.length_scale), options.k);
-  if (parts == 0) kernel.emplace_back(heat_time(surfels.h, options, measures.length_scale), options.k);
-  std::size_t largest = 0;  // the part with the most rows: its t is the operator's t
-  for (std::size_t p = 0; p < parts; ++p)
-    if (op.row_offset[p + 1] - op.row_offset[p] > op.row_offset[largest + 1] - op.row_offset[largest]) largest = p;
-  op.t = kernel[largest].t;
-  op.cut = kernel[largest].cut;
-  op.length_scale = options.t != 0              ? 0.0
-                    : options.length_scale != 0 ? options.length_scale
-                    : own_l                     ? measures.surface_length_scales[largest]
-                                                : measures.length_scale;
-  for (std::size_t p = 0; p < parts; ++p) op.part_t.push_back(kernel[p].t);
+  op.t = layout.t;
+  op.cut = layout.cut;
+  op.length_scale = layout.length_scale;
+  op.part_t = layout.part_t;
   if (n == 0) return op;
   std::vector<Grid> grids;
   grids.reserve(parts);

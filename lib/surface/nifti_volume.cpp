@@ -165,8 +165,11 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   // spacing named. nifticlib reads a spacing <= 0 as 1 (one voxel unit).
   const double dx = std::fabs(nim->dx), dy = std::fabs(nim->dy), dz = std::fabs(nim->dz);
   const bool has_spacing = dx > 0 && dy > 0 && dz > 0 && std::isfinite(dx + dy + dz);
-  // NIfTI-1 stores spacings as float: equal within float rounding is equal.
-  if (has_spacing && (std::max({dx, dy, dz}) - std::min({dx, dy, dz})) > 1e-5 * std::max({dx, dy, dz}))
+  // Spacings computed by resampling tools and stored as float (1 x 1 x 1.00002) are equal within
+  // 1e-4; a given h declares the voxels cubes up to 1% (the user's override, documented in
+  // VolumeOptions::h); beyond that the operator would be wrong, whatever h says.
+  const double anisotropy_tolerance = o.h > 0 ? 1e-2 : 1e-4;
+  if (has_spacing && (std::max({dx, dy, dz}) - std::min({dx, dy, dz})) > anisotropy_tolerance * std::max({dx, dy, dz}))
     refuse(path, "anisotropic voxel spacing " + spacing_text(dx, dy, dz, nim->xyz_units) +
                      ": the operator assumes cubic voxels; resample the volume to equal spacing first");
   std::error_code error;
@@ -182,7 +185,7 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   const double slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
   NiftiGrid grid;
-  grid.h = o.h > 0 ? o.h : has_spacing ? dx : 1.0 / static_cast<double>(std::max({nx, ny, nz}));
+  grid.h = o.h > 0 ? o.h : has_spacing ? dx : 1.0;  // no spacing: voxel units
   grid.nx = nx, grid.ny = ny, grid.nz = nz, grid.slope = slope, grid.inter = inter, grid.scaled = scaled;
   grid.nim = std::move(nim);
   return grid;

@@ -5,9 +5,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
-#include <regex>
+#include <cctype>
+#include <cstdint>
 #include <vector>
 
 namespace digilap::surface {
@@ -23,6 +25,26 @@ struct NpyHeader {
   std::vector<std::int64_t> shape;
   std::size_t data_offset = 0;
 };
+
+// The element type of a .npy array: every numeric dtype NumPy writes for a volume (bool,
+// unsigned and signed integers of 1-8 bytes, float32, float64), either byte order.
+struct NpyDtype {
+  char kind = 0;  // 'b', 'u', 'i', 'f'; 0 when not supported
+  std::size_t size = 0;
+  bool big_endian = false;
+};
+
+NpyDtype npy_dtype(const std::string& descr) {
+  NpyDtype d;
+  if (descr.size() != 3 || std::string("<>|=").find(descr[0]) == std::string::npos) return d;
+  const char kind = descr[1];
+  const std::size_t size = static_cast<std::size_t>(descr[2] - '0');
+  const bool ok = (kind == 'b' && size == 1) || ((kind == 'u' || kind == 'i') && (size == 1 || size == 2 || size == 4 || size == 8)) ||
+                  (kind == 'f' && (size == 4 || size == 8));
+  if (!ok) return d;
+  d.kind = kind, d.size = size, d.big_endian = descr[0] == '>';
+  return d;
+}
 
 NpyHeader parse_header(const std::string& name, const std::uint8_t* bytes, std::size_t size) {
   auto fail = [&](const std::string& why) -> NpyHeader { throw Error("cannot read volume '" + name + "': " + why); };
@@ -43,18 +65,43 @@ NpyHeader parse_header(const std::string& name, const std::uint8_t* bytes, std::
   const std::string dict(reinterpret_cast<const char*>(bytes) + prefix, length);
   NpyHeader h;
   h.data_offset = prefix + length;
-  std::smatch m;
-  if (!std::regex_search(dict, m, std::regex(R"('descr'\s*:\s*'([^']*)')"))) fail("no 'descr' in the header");
-  h.descr = m[1];
-  if (!std::regex_search(dict, m, std::regex(R"('fortran_order'\s*:\s*(True|False))"))) fail("no 'fortran_order' in the header");
-  h.fortran = m[1] == "True";
-  if (!std::regex_search(dict, m, std::regex(R"('shape'\s*:\s*\(([^)]*)\))"))) fail("no 'shape' in the header");
-  const std::string dims = m[1];
-  const std::regex number(R"(-?\d+)");
-  for (std::sregex_iterator it(dims.begin(), dims.end(), number), end; it != end; ++it) {
-    const std::string d = it->str();
-    if (d.size() > 12 || d[0] == '-') fail("the dimension '" + d + "' is not a size");
+  // A scan by hand, linear in the header's length: a recursive std::regex overflowed the stack
+  // on a header holding a long string (issue 25).
+  auto value_of = [&](const std::string& key) -> std::size_t {
+    for (std::size_t at = dict.find("'" + key + "'"); at != std::string::npos; at = dict.find("'" + key + "'", at + 1)) {
+      std::size_t p = at + key.size() + 2;
+      while (p < dict.size() && std::isspace(static_cast<unsigned char>(dict[p]))) ++p;
+      if (p < dict.size() && dict[p] == ':') {
+        ++p;
+        while (p < dict.size() && std::isspace(static_cast<unsigned char>(dict[p]))) ++p;
+        return p;
+      }
+    }
+    fail("no '" + key + "' in the header");
+    return 0;
+  };
+  std::size_t p = value_of("descr");
+  const std::size_t close = p < dict.size() && dict[p] == '\'' ? dict.find('\'', p + 1) : std::string::npos;
+  if (close == std::string::npos || close - p > 16) fail("'descr' is not a dtype string");
+  h.descr = dict.substr(p + 1, close - p - 1);
+  p = value_of("fortran_order");
+  if (dict.compare(p, 4, "True") == 0) h.fortran = true;
+  else if (dict.compare(p, 5, "False") != 0) fail("'fortran_order' is neither True nor False");
+  p = value_of("shape");
+  if (p >= dict.size() || dict[p] != '(') fail("'shape' is not a tuple");
+  const std::size_t shape_end = dict.find(')', p);
+  if (shape_end == std::string::npos) fail("'shape' is not a tuple");
+  for (++p; p < shape_end;) {
+    while (p < shape_end && (std::isspace(static_cast<unsigned char>(dict[p])) || dict[p] == ',')) ++p;
+    if (p == shape_end) break;
+    std::size_t e = p;
+    while (e < shape_end && std::isdigit(static_cast<unsigned char>(dict[e]))) ++e;
+    const std::string d = dict.substr(p, std::max<std::size_t>(e - p, 1));
+    if (e == p || e - p > 12) fail("the dimension '" + d.substr(0, 16) + "' is not a size");
     h.shape.push_back(std::stoll(d));
+    p = e;
+    while (p < shape_end && std::isspace(static_cast<unsigned char>(dict[p]))) ++p;
+    if (p < shape_end && dict[p] != ',') fail("'shape' is not a tuple of sizes");
   }
   return h;
 }
@@ -77,8 +124,10 @@ std::vector<std::uint8_t> npy_bytes(const std::string& path, const VolumeOptions
   if (header.shape.size() == 3 && voxels > static_cast<double>(o.max_voxels))
     throw Error("cannot read volume '" + path + "': its " + detail::count_text(voxels) +
                 " voxels are above the limit of " + std::to_string(o.max_voxels));
-  if (file_size > static_cast<std::uint64_t>(header.data_offset) + 2 * static_cast<std::uint64_t>(std::max(voxels, 0.0)) + 16)
-    throw Error("cannot read volume '" + path + "': the file is larger than its header declares");
+  const std::size_t declared = npy_dtype(header.descr).size, item = declared > 0 ? declared : 8;  // 8: the largest, when unknown
+  if (static_cast<double>(file_size) > static_cast<double>(header.data_offset) + static_cast<double>(item) * std::max(voxels, 0.0) + 16)
+    throw Error("cannot read volume '" + path + "': the file holds " + std::to_string(file_size) +
+                " bytes, more than its header declares (" + detail::count_text(voxels) + " voxels of '" + header.descr + "')");
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(file_size));
   in.seekg(0);
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
@@ -91,15 +140,38 @@ std::vector<std::uint8_t> npy_bytes(const std::string& path, const VolumeOptions
 struct NpyGrid {
   const char* data = nullptr;
   NpyHeader header;
-  std::size_t item = 0;
+  NpyDtype dtype;
+  std::string path;
   std::int64_t nx = 0, ny = 0, nz = 0;
   double h = 1;
   double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
     const std::int64_t a = k, b = j, c = i, n0 = header.shape[0], n1 = header.shape[1], n2 = header.shape[2];
     const std::int64_t at = header.fortran ? a + n0 * (b + n1 * c) : (a * n1 + b) * n2 + c;
-    if (item == 1) return static_cast<unsigned char>(data[static_cast<std::size_t>(at)]);
-    const auto* p = reinterpret_cast<const unsigned char*>(data) + 2 * at;
-    return p[0] | (p[1] << 8);
+    const auto* p = reinterpret_cast<const unsigned char*>(data) + dtype.size * static_cast<std::size_t>(at);
+    std::uint64_t bits = 0;
+    for (std::size_t q = 0; q < dtype.size; ++q)
+      bits |= static_cast<std::uint64_t>(p[dtype.big_endian ? dtype.size - 1 - q : q]) << (8 * q);
+    double value = 0;
+    if (dtype.kind == 'f' && dtype.size == 4) {
+      float f;
+      const auto b32 = static_cast<std::uint32_t>(bits);
+      std::memcpy(&f, &b32, 4);
+      value = f;
+    } else if (dtype.kind == 'f') {
+      std::memcpy(&value, &bits, 8);
+    } else if (dtype.kind == 'i') {
+      const unsigned shift = static_cast<unsigned>(64 - 8 * dtype.size);  // sign-extend
+      value = static_cast<double>(static_cast<std::int64_t>(bits << shift) >> shift);
+    } else {
+      value = static_cast<double>(bits);
+    }
+    if (std::isnan(value)) {
+      char where[120];
+      std::snprintf(where, sizeof where, "voxel (%lld, %lld, %lld) is NaN", static_cast<long long>(i), static_cast<long long>(j),
+                    static_cast<long long>(k));
+      throw Error("cannot read volume '" + path + "': " + where + " (replace NaN first, e.g. np.nan_to_num)");
+    }
+    return value;
   }
 };
 
@@ -108,25 +180,26 @@ NpyGrid npy_grid(const std::uint8_t* bytes, std::size_t file_size, const std::st
   NpyGrid g;
   g.header = parse_header(path, bytes, file_size);
   const NpyHeader& header = g.header;
-  if (header.descr == "|b1" || header.descr == "|u1" || header.descr == "<u1") g.item = 1;
-  else if (header.descr == "<u2") g.item = 2;
-  else fail("dtype '" + header.descr + "' is not supported (bool, uint8 or uint16)");
+  g.dtype = npy_dtype(header.descr);
+  g.path = path;
+  if (g.dtype.kind == 0)
+    fail("dtype '" + header.descr + "' is not supported (bool, integers of 1 to 8 bytes, float32 or float64)");
   if (header.shape.size() != 3) fail("a volume needs 3 dimensions, got " + std::to_string(header.shape.size()));
   double voxels = 1;
   for (std::int64_t d : header.shape) voxels *= static_cast<double>(d);
   if (voxels == 0) fail("the volume is empty (a dimension is 0)");
   if (voxels > static_cast<double>(o.max_voxels))
     fail("its " + detail::count_text(voxels) + " voxels are above the limit of " + std::to_string(o.max_voxels));
-  if (static_cast<double>(header.data_offset) + voxels * static_cast<double>(g.item) > static_cast<double>(file_size))
+  if (static_cast<double>(header.data_offset) + voxels * static_cast<double>(g.dtype.size) > static_cast<double>(file_size))
     fail("truncated: the data holds " + std::to_string(file_size - header.data_offset) + " of " +
-         detail::count_text(voxels * static_cast<double>(g.item)) + " bytes");
+         detail::count_text(voxels * static_cast<double>(g.dtype.size)) + " bytes");
   if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_npy_volume: h", o.h);
   if (!std::isfinite(o.threshold)) fail("the threshold must be finite");
   // Axes as voxel counts along x, y, z: the last array axis is x in C order, the first in Fortran.
   g.nx = header.shape[2], g.ny = header.shape[1], g.nz = header.shape[0];
   if (std::max({g.nx, g.ny, g.nz}) > kMaxPixelIndex) fail("a dimension is above " + std::to_string(kMaxPixelIndex));
   g.data = reinterpret_cast<const char*>(bytes) + header.data_offset;
-  g.h = o.h > 0 ? o.h : 1.0 / static_cast<double>(std::max({g.nx, g.ny, g.nz}));
+  g.h = o.h > 0 ? o.h : 1.0;  // voxel units by default: padding the array changes nothing (issue 25)
   return g;
 }
 }  // namespace

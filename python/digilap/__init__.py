@@ -40,6 +40,8 @@ def laplacian(mask_or_shape, h=None, k_R=None, **options):
     else:
         digital = from_mask(_np.asarray(mask_or_shape), 0.0 if h is None else h)
     contours = track_contours(digital)
+    if len(contours.contours) == 0:
+        raise Error("laplacian: the mask has no foreground pixel, so no contour to build an operator on")
     normals = ii_normals(digital, contours) if k_R is None else ii_normals(digital, contours, k_R=k_R)
     op = heat_laplacian(contours, measures(contours, normals), **options)
     return -op.A, op.M
@@ -53,4 +55,9 @@ def _as_linear_operator(self):
 
 MatrixFreeLaplacian.as_linear_operator = _as_linear_operator
 
-from . import surface  # noqa: E402  (the Python module digilap/surface.py, over the C++ submodule)
+# The Python module digilap/surface.py, over the C++ submodule. Imported explicitly: the star
+# import above already bound the name `surface` to the C++ submodule, and `from . import surface`
+# would then keep that one instead of importing the file.
+import importlib as _importlib  # noqa: E402
+
+surface = _importlib.import_module(".surface", __name__)

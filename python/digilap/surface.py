@@ -12,7 +12,7 @@ Convention for arrays: ``volume[i, j, k]`` is voxel ``(i, j, k)``, as nibabel's
 """
 import numpy as _np
 
-from ._digilap import smallest_eigenpairs as _smallest_eigenpairs
+from ._digilap import Error, smallest_eigenpairs as _smallest_eigenpairs
 from ._digilap import surface as _cpp  # the C++ submodule (an attribute, not an importable module)
 
 globals().update({_name: getattr(_cpp, _name) for _name in dir(_cpp) if not _name.startswith("_")})
@@ -20,7 +20,19 @@ enclosed_volume, extract_surfels, filter_surfels = _cpp.enclosed_volume, _cpp.ex
 from_mask, heat_laplacian, ii_normals, measures, VoxelSet = (_cpp.from_mask, _cpp.heat_laplacian, _cpp.ii_normals,
                                                               _cpp.measures, _cpp.VoxelSet)
 
-__all__ = [name for name in dir() if not name.startswith("_")] + ["laplacian", "shape_dna"]
+__all__ = [name for name in dir() if not name.startswith("_")] + ["laplacian", "shape_dna", "read_label_names"]
+
+
+def read_label_names(path):
+    """``{index: name}`` from a label table: ``index name ...`` lines, as FSL's atlases ship them,
+    or FreeSurfer's colour LUT (``index name R G B A``); '#' comments and other lines skipped."""
+    names = {}
+    with open(path) as table:
+        for line in table:
+            parts = line.split("#", 1)[0].split()
+            if len(parts) >= 2 and parts[0].isdigit():
+                names[int(parts[0])] = parts[1]
+    return names
 
 
 def _operator(volume_or_voxels, h, label, largest, min_surfels, k_R, options):
@@ -47,7 +59,9 @@ def laplacian(volume_or_voxels, h=None, label=None, largest=False, min_surfels=8
     ``M = diag(mu)`` (surfels of zero area have a zero row, column and mass: use
     ``digilap.smallest_eigenpairs(op)`` for spectra that handle them).
     """
-    op = _operator(volume_or_voxels, h, label, largest, min_surfels, k_R, options)[2]
+    surfels, _, op = _operator(volume_or_voxels, h, label, largest, min_surfels, k_R, options)
+    if len(surfels) == 0:
+        raise Error("laplacian: no surface with at least %d surfels in the volume (is it empty?)" % min_surfels)
     return -op.A, op.M
 
 

@@ -1,8 +1,11 @@
 """digilap.surface from NumPy: volumes read in place in nibabel's convention, the real-label
 lattice symmetries, the ShapeDNA table and the heat kernel signature (issues 21, 22)."""
 import gzip
+import os
 import pathlib
 import struct
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -94,3 +97,60 @@ def test_heat_kernel_signature():
         assert np.isclose(op.mass @ hks[:, c], np.exp(-np.maximum(lam, 0) * tau).sum(), rtol=1e-10)
     with pytest.raises(digilap.Error):
         digilap.heat_kernel_signature(s, [0.0])
+
+
+def read_ply_faces(path):
+    """The per-face float fields of a binary PLY written by digilap.surface.save_ply."""
+    raw = pathlib.Path(path).read_bytes()
+    end = raw.index(b"end_header\n") + len(b"end_header\n")
+    header = raw[:end].decode().splitlines()
+    vertices = int(next(l for l in header if l.startswith("element vertex")).split()[2])
+    faces = int(next(l for l in header if l.startswith("element face")).split()[2])
+    names = [l.split()[2] for l in header[header.index(next(l for l in header if l.startswith("element face"))):]
+             if l.startswith("property float")]
+    dtype = np.dtype([("n", "u1"), ("corners", "<i4", 4)] + [(n, "<f4") for n in names])
+    return np.frombuffer(raw, dtype=dtype, count=faces, offset=end + 12 * vertices)
+
+
+@pytest.mark.skipif(not os.environ.get("DIGILAP_APP_SPECTRUM"), reason="the apps are in the build tree only")
+def test_spectrum_app_writes_the_heat_kernel_signature_in_the_ply(tmp_path):
+    """surfels.ply carries hks_1 ... hks_5 (issue 22). At the largest time, 4 ln 10 / mu_1, every
+    mode but the constant one has decayed by e^(-9.2) or more, so HKS -> phi_0^2 = 1 / area: on a
+    sphere the 3 modes of l = 1 add at most 3 * 1e-4 / area (hence 1e-3); and
+    sum_x mu_x HKS(x, tau) = sum_k e^(-mu_k tau) >= 1 for every tau."""
+    app = os.environ["DIGILAP_APP_SPECTRUM"]
+    subprocess.run([app, "--quiet", "--shape", "sphere", "--h", "0.2", "--count", "10", "--out", str(tmp_path)],
+                   check=True, stdout=subprocess.DEVNULL)
+    faces = read_ply_faces(tmp_path / "surfels.ply")
+    assert all("hks_%d" % c in faces.dtype.names for c in range(1, 6)) and "phi_9" in faces.dtype.names
+    mu = faces["mu"].astype(float)
+    area = mu.sum()
+    assert np.allclose(faces["hks_5"] * area, 1.0, atol=1e-3)
+    for c in range(1, 5):
+        assert (mu @ faces["hks_%d" % c]) > (mu @ faces["hks_%d" % (c + 1)]) > 0.99
+
+
+def test_read_label_names_reads_both_table_formats(tmp_path):
+    """FSL's 'index name' lines and FreeSurfer's colour LUT give the same {index: name}."""
+    fsl = tmp_path / "atlas.txt"
+    fsl.write_text("0 Unclassified\n3 Genu_of_corpus_callosum\nnot a row\n")
+    lut = tmp_path / "FreeSurferColorLUT.txt"
+    lut.write_text("#No. Label Name: R G B A\n\n3 Genu_of_corpus_callosum 120 18 134 0  # comment\n17 Left-Hippocampus 220 216 20 0\n")
+    assert surface.read_label_names(fsl) == {0: "Unclassified", 3: "Genu_of_corpus_callosum"}
+    assert surface.read_label_names(lut) == {3: "Genu_of_corpus_callosum", 17: "Left-Hippocampus"}
+    names = surface.read_label_names(DATA / "JHU-WhiteMatter-labels-2mm.nii.txt")
+    assert len([k for k in names if k > 0]) == 48
+
+
+def test_python_errors_name_the_problem(tmp_path):
+    """Issue 25: an empty mask is a digilap.Error, not a TypeError; paths may be pathlib.Path;
+    `digilap.surface` after a plain `import digilap` is the Python module."""
+    with pytest.raises(digilap.Error, match="no foreground"):
+        digilap.laplacian(np.zeros((10, 10), bool))
+    with pytest.raises((digilap.Error, ValueError)):
+        surface.laplacian(np.zeros((6, 6, 6), bool))
+    assert surface.read_volume(ATLAS, label=6).voxel_count() == surface.read_volume(str(ATLAS), label=6).voxel_count()
+    assert set(surface.read_labels(ATLAS, h=2.0)) == set(range(1, 49))
+    check = "import digilap; print(hasattr(digilap.surface, 'shape_dna') and hasattr(digilap.surface, 'laplacian'))"
+    out = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "True"

@@ -12,7 +12,8 @@ namespace digilap::surface {
 
 struct VolumeOptions {
   /// Grid step; 0 means: for NIfTI, the file's voxel spacing in its own unit (e.g. mm; 1 when the
-  /// file gives none); for .npy, 1 / (the largest dimension): the volume spans the unit cube.
+  /// file gives none); for .npy, 1 (voxel units: padding the array changes nothing). NIfTI
+  /// spacings must be equal within 1e-4 relative; with h given, within 1% (h overrides them).
   double h = 0.0;
   /// Foreground: value == label when label >= 0 (segmentations hold labels) ...
   std::int64_t label = -1;

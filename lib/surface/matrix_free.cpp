@@ -1,0 +1,306 @@
+#include "digilap/surface/matrix_free.hpp"
+
+#include "digilap/error.hpp"
+#include "../eigen_checks.hpp"
+#include "../gaussian_kernel.hpp"
+#include "../lobpcg.hpp"
+#include "../spectrum_parts.hpp"
+#include "surfel_grid.hpp"
+
+#include <Eigen/SparseCholesky>
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+namespace digilap::surface {
+
+// One surface: its grid over its own centres (rows local to the surface) and its kernel.
+struct MatrixFreeSurfaceOperator::Part {
+  Eigen::Index first = 0, rows = 0;
+  detail::Grid grid;
+  detail::Kernel kernel;
+  std::vector<int> slot;          // row -> its position in the grid's item order
+  Eigen::VectorXd mass_in_grid;    // the masses in that order
+  Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass)
+      : first(first_), rows(positions.rows()), grid(positions, k.cut), kernel(k) {
+    slot.resize(static_cast<std::size_t>(rows));
+    mass_in_grid.resize(rows);
+    for (std::size_t it = 0; it < grid.items.size(); ++it) {
+      slot[static_cast<std::size_t>(grid.items[it])] = static_cast<int>(it);
+      mass_in_grid[static_cast<Eigen::Index>(it)] = mass[first + grid.items[it]];
+    }
+  }
+};
+
+MatrixFreeSurfaceOperator::~MatrixFreeSurfaceOperator() = default;
+MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(MatrixFreeSurfaceOperator&&) noexcept = default;
+MatrixFreeSurfaceOperator& MatrixFreeSurfaceOperator::operator=(MatrixFreeSurfaceOperator&&) noexcept = default;
+
+namespace {
+// out[0, b) = sum_k a_k x_{col_k}[0, b), x stored row by row (b values a row): the products'
+// hot loop, built for AVX2 too and chosen at run time (the same CPU always runs the same
+// build, so results do not depend on the threads).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void accumulate_row(const double* a, const int* col, Eigen::Index count,
+                                                                      const double* x, Eigen::Index b, double* out) {
+  for (Eigen::Index c = 0; c < b; ++c) out[c] = 0;
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const double ak = a[k];
+    const double* xj = x + static_cast<std::ptrdiff_t>(col[k]) * b;
+    for (Eigen::Index c = 0; c < b; ++c) out[c] += ak * xj[c];
+  }
+}
+
+// For each row i of a part, f(i, cols, weights, count): its neighbours within the cut (i itself
+// included, at distance 0) as part-local columns and kernel weights, in the grid's fixed order.
+template <class F>
+void for_each_row(const detail::Grid& grid, const detail::Kernel& kernel, const Eigen::MatrixX3d& positions, Eigen::Index first,
+                  Eigen::Index rows, bool in_grid_order, F&& f) {
+#pragma omp parallel
+  {
+    detail::RowBuffer found;  // this thread's
+#pragma omp for schedule(dynamic, 64)
+    for (Eigen::Index i = 0; i < rows; ++i) {
+      grid.gather_within(positions.row(first + i).transpose(), kernel.cut, found, in_grid_order);
+      const auto count = static_cast<Eigen::Index>(found.size);
+      gaussian_weights(found.d2.data(), count, kernel.inv_4t, kernel.scale);
+      f(i, found.col.data(), found.d2.data(), count);  // the weights may be overwritten
+    }
+  }
+}
+}  // namespace
+
+MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, const SurfelMeasures& measures,
+                                                     const HeatLaplacianOptions& options) {
+  if (options.richardson) throw Error("MatrixFreeSurfaceOperator: Richardson extrapolation is not available in 3D");
+  const auto n = static_cast<Eigen::Index>(surfels.size());
+  if (measures.mu.size() != n)
+    throw Error("MatrixFreeSurfaceOperator: " + std::to_string(measures.mu.size()) + " measures for " + std::to_string(n) + " surfels");
+  require_positive("MatrixFreeSurfaceOperator: k", options.k);
+  const detail::PartLayout layout = part_layout(surfels, measures, options);
+  row_offset_ = layout.row_offset;
+  part_t_ = layout.part_t;
+  t_ = layout.t, cut_ = layout.cut, length_scale_ = layout.length_scale, h_ = surfels.h;
+  mass_ = measures.mu;
+  const Eigen::MatrixX3d positions = surfels.centres();
+  a_diagonal_ = Eigen::VectorXd::Zero(n);
+  l_row_sums_ = Eigen::VectorXd::Zero(n);
+  for (std::size_t p = 0; p + 1 < row_offset_.size(); ++p) {
+    const Eigen::Index first = row_offset_[p], rows = row_offset_[p + 1] - first;
+    part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_));
+    const Part& part = *part_.back();
+    for_each_row(part.grid, part.kernel, positions, first, rows, false, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
+      double sum = 0;
+      for (Eigen::Index k = 0; k < count; ++k)
+        if (col[k] != i) sum += w[k] * mass_[first + col[k]];
+      l_row_sums_[first + i] = sum;
+      a_diagonal_[first + i] = -mass_[first + i] * sum;
+    });
+  }
+  positions_ = positions;
+}
+
+double MatrixFreeSurfaceOperator::bytes() const {
+  // Positions (24), masses, diagonals (24), and per grid item its index and coordinates (32).
+  return 80.0 * static_cast<double>(rows());
+}
+
+void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const {
+  if (p >= part_.size()) throw Error("MatrixFreeSurfaceOperator: surface " + std::to_string(p) + " does not exist");
+  const Part& part = *part_[p];
+  if (x.rows() != part.rows)
+    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
+                std::to_string(part.rows));
+  const Eigen::Index b = x.cols();
+  // Each row's b values contiguous (the inner loop runs over them), rows in the grid's order
+  // (a row's neighbours are then a few runs of memory).
+  Eigen::MatrixXd xg(b, part.rows);
+  for (Eigen::Index it = 0; it < part.rows; ++it) xg.col(it) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
+  Eigen::MatrixXd yt(b, part.rows);
+  const double* mass = part.mass_in_grid.data();
+  for_each_row(part.grid, part.kernel, positions_, part.first, part.rows, true,
+               [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
+                 // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
+                 const int self = part.slot[static_cast<std::size_t>(i)];
+                 double sum = 0;
+                 for (Eigen::Index k = 0; k < count; ++k) {
+                   w[k] = col[k] == self ? 0.0 : w[k] * mass[col[k]];
+                   sum += w[k];
+                 }
+                 double* out = yt.col(i).data();
+                 const double* xi = xg.col(self).data();
+                 accumulate_row(w, col, count, xg.data(), b, out);
+                 const double scale = stiffness ? mass[self] : 1.0;
+                 for (Eigen::Index c = 0; c < b; ++c) out[c] = scale * (out[c] - sum * xi[c]);
+               });
+  y = yt.transpose();
+}
+
+namespace {
+void apply_whole(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) {
+  if (x.rows() != op.rows())
+    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for " + std::to_string(op.rows()));
+  y.resize(x.rows(), x.cols());
+  Eigen::MatrixXd part_y;
+  for (std::size_t p = 0; p < op.parts(); ++p) {
+    const Eigen::Index first = op.row_offset()[p], rows = op.row_offset()[p + 1] - first;
+    op.apply_part(p, x.middleRows(first, rows), part_y, stiffness);
+    y.middleRows(first, rows) = part_y;
+  }
+}
+}  // namespace
+
+void MatrixFreeSurfaceOperator::apply_stiffness(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, true); }
+void MatrixFreeSurfaceOperator::apply_laplacian(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, false); }
+
+namespace {
+// The preconditioner of one surface's LOBPCG, on its support: x -> M^(1/2) (K + sigma M)^(-1)
+// M^(1/2) x + t x in the symmetric form of the problem (C = M^(-1/2) (-A) M^(-1/2)). K is the
+// graph Laplacian of the surfels whose centres are within 1.01 h (the edge-adjacent ones, at h
+// or h / sqrt(2)), scaled as a stiffness (a flat grid's 5-point stencil: K / M ~ -Laplacian);
+// sigma, a hundredth of Weyl's first eigenvalue 4 pi / area, makes K + sigma M definite.
+class GraphPreconditioner {
+public:
+  GraphPreconditioner(const Eigen::MatrixX3d& positions, const Eigen::VectorXd& mass, double h, double t) : t_(t) {
+    const Eigen::Index n = positions.rows();
+    const double cut = 1.01 * h;
+    const detail::Grid grid(positions, cut);
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(static_cast<std::size_t>(7 * n));
+    const double sigma = 1e-2 * 4 * detail::kPi / mass.sum();
+    detail::RowBuffer found;
+    for (Eigen::Index i = 0; i < n; ++i) {
+      grid.gather_within(positions.row(i).transpose(), cut, found);
+      double degree = 0;
+      for (std::size_t k = 0; k < found.size; ++k) {
+        const int j = found.col[k];
+        if (j == i) continue;
+        if (j > i) entries.emplace_back(static_cast<int>(j), static_cast<int>(i), -1.0);  // lower triangle
+        degree += 1;
+      }
+      entries.emplace_back(static_cast<int>(i), static_cast<int>(i), degree + sigma * mass[i]);
+    }
+    Eigen::SparseMatrix<double> k(n, n);
+    k.setFromTriplets(entries.begin(), entries.end());
+    solver_.compute(k);
+    if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs (matrix-free surfaces): the preconditioner's factorization failed");
+    root_mass_ = mass.cwiseSqrt();
+  }
+  void apply(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
+    y = root_mass_.asDiagonal() * solver_.solve(root_mass_.asDiagonal() * x);
+    y += t_ * x;
+  }
+
+private:
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver_;
+  Eigen::VectorXd root_mass_;
+  double t_;
+};
+
+// One surface's spectrum on the rows of positive area (`support`, local to the surface).
+Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const std::vector<Eigen::Index>& support, int count,
+                       const SpectrumOptions& o) {
+  const Eigen::Index first = op.row_offset()[p], rows = op.row_offset()[p + 1] - first, n = static_cast<Eigen::Index>(support.size());
+  Eigen::VectorXd mass(n), s(n);
+  for (Eigen::Index r = 0; r < n; ++r) mass[r] = op.mass()[first + support[r]], s[r] = 1 / std::sqrt(mass[r]);
+  // -A on the support: x scattered onto the surface's rows (zero off the support, where A's
+  // columns vanish anyway), multiplied, and gathered back.
+  Eigen::MatrixXd full, image;
+  auto minus_a = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
+    full.setZero(rows, x.cols());
+    for (Eigen::Index r = 0; r < n; ++r) full.row(support[r]) = x.row(r);
+    op.apply_part(p, full, image, true);
+    y.resize(n, x.cols());
+    for (Eigen::Index r = 0; r < n; ++r) y.row(r) = -image.row(support[r]);
+  };
+  if (n <= digilap::detail::kDenseRows || 2 * count + 1 > n) {
+    constexpr Eigen::Index kDenseLastResort = 3000;
+    if (n > kDenseLastResort)
+      throw Error("smallest_eigenpairs: " + std::to_string(count) + " eigenpairs of a surface of " + std::to_string(n) +
+                  " surfels is more than half of them; ask for fewer");
+    Eigen::MatrixXd minus_a_dense;
+    minus_a(Eigen::MatrixXd::Identity(n, n), minus_a_dense);
+    return digilap::detail::dense_spectrum(-minus_a_dense, mass, count);
+  }
+  const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+  if (digilap::detail::lobpcg_bytes(n, block) + op.bytes() > o.memory_limit_bytes) {
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs (matrix-free surfaces): LOBPCG's blocks would take about "
+        << digilap::detail::lobpcg_bytes(n, block) / 1e9 << " GB, above the memory limit of " << o.memory_limit_bytes / 1e9
+        << " GB; ask for fewer eigenpairs or raise memory_limit_bytes";
+    throw Error(msg.str());
+  }
+  Eigen::MatrixX3d support_positions(n, 3);
+  for (Eigen::Index r = 0; r < n; ++r) support_positions.row(r) = op.positions().row(first + support[r]);
+  const GraphPreconditioner preconditioner(support_positions, mass, op.h(), op.part_t()[p]);
+  double c = 0;  // Gershgorin: the eigenvalues of S (-A) S lie in [0, 2 max |A_ii| / m_i]
+  for (Eigen::Index r = 0; r < n; ++r) c = std::max(c, 2 * std::abs(op.stiffness_diagonal()[first + support[r]]) / mass[r]);
+  Eigen::MatrixXd scaled;
+  const digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
+      [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
+        scaled = s.asDiagonal() * x;
+        minus_a(scaled, y);
+        y = s.asDiagonal() * y;
+      },
+      [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); }, digilap::detail::lobpcg_start(n, block),
+      count, o.tolerance * c,
+      o.max_iterations, o.progress);
+  if (!result.converged)
+    throw Error("smallest_eigenpairs (matrix-free surfaces): LOBPCG did not converge in " + std::to_string(o.max_iterations) +
+                " iterations on surface " + std::to_string(p) + "; raise max_iterations or use the assembled operator");
+  if (count > 1 && result.values[1] <= 1e-9 * c)
+    throw Error("smallest_eigenpairs (matrix-free surfaces): surface " + std::to_string(p) +
+                " has two zero eigenvalues: its surfels of positive area fall apart (zero-area surfels cut it); use the "
+                "assembled operator, which solves each piece on its own");
+  Spectrum out;
+  out.eigenvalues = result.values;
+  out.eigenvectors = s.asDiagonal() * result.vectors;  // M-orthonormal
+  out.iterations = result.iterations;
+  out.operations = result.products;
+  return out;
+}
+}  // namespace
+
+Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const SpectrumOptions& o) {
+  const Eigen::Index n = op.rows();
+  digilap::detail::check_masses(op.mass());
+  Eigen::Index with_mass = 0;
+  for (Eigen::Index i = 0; i < n; ++i) with_mass += op.mass()[i] > 0;
+  digilap::detail::check_count(with_mass, n - with_mass, o.count);
+  std::vector<digilap::detail::SpectrumPart> parts;
+  std::vector<Eigen::Index> massless;
+  for (std::size_t p = 0; p < op.parts(); ++p) {
+    const Eigen::Index first = op.row_offset()[p], last = op.row_offset()[p + 1];
+    std::vector<Eigen::Index> support;
+    for (Eigen::Index i = first; i < last; ++i) {
+      if (op.mass()[i] > 0) {
+        support.push_back(i - first);
+      } else {
+        if (!(op.laplacian_row_sums()[i] > 0))
+          throw Error("smallest_eigenpairs: surfel " + std::to_string(i) +
+                      " has zero area and no neighbour of positive area within the kernel's cut: its value is undefined");
+        massless.push_back(i);
+      }
+    }
+    if (support.empty())
+      throw Error("smallest_eigenpairs: surface " + std::to_string(p) + " has no surfel of positive area");
+    const int count = static_cast<int>(std::min<Eigen::Index>(o.count, static_cast<Eigen::Index>(support.size())));
+    digilap::detail::SpectrumPart part;
+    part.spectrum = part_spectrum(op, p, support, count, o);
+    for (Eigen::Index r : support) part.rows.push_back(first + r);
+    parts.push_back(std::move(part));
+  }
+  Spectrum s = digilap::detail::merge_parts(parts, n, o.count);
+  if (!massless.empty()) {
+    // Zero-area surfels: the heat-kernel average of their neighbours, sum_j w_ij mu_j u_j / sum_j w_ij mu_j.
+    Eigen::MatrixXd average;
+    op.apply_laplacian(s.eigenvectors, average);  // (L u)_i = sum_j w_ij mu_j (u_j - u_i), u_i = 0 here
+    for (Eigen::Index i : massless) s.eigenvectors.row(i) = average.row(i) / op.laplacian_row_sums()[i];
+    digilap::detail::fix_signs(s.eigenvectors);
+    s.massless = static_cast<Eigen::Index>(massless.size());
+  }
+  if (op.t() > 0) digilap::detail::laplace_beltrami_by_contour(s, op.row_offset(), op.part_t());
+  return s;
+}
+
+}  // namespace digilap::surface
