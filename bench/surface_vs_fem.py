@@ -56,6 +56,7 @@ def main():
     parser.add_argument("--count", type=int, default=20)
     parser.add_argument("--smoothing", type=int, default=10)
     parser.add_argument("--threads", default="2")
+    parser.add_argument("--variants", default="assembled,matrix-free", help="digilap runs: assembled and/or matrix-free")
     args = parser.parse_args()
     env = dict(os.environ, OMP_NUM_THREADS=args.threads, OPENBLAS_NUM_THREADS=args.threads)
     work = pathlib.Path(tempfile.mkdtemp(prefix="surface_vs_fem_"))
@@ -70,31 +71,37 @@ def main():
         exact = mesh_fem.sphere_spectrum(args.count) if shape == "sphere" else mesh_fem.torus_spectrum(args.count)
         print("surface_vs_fem: %s h = %g (%d voxels inside)" % (shape, h, mask.sum()), file=sys.stderr, flush=True)
 
-        out = work / ("out_%s_%g" % (shape, h))
-        run, d_wall, d_peak = timed([args.app, "--volume", str(path), "--h", str(h), "--count", str(args.count), "--draw", "0",
-                                     "--quiet", "--out", str(out)])
-        if run.returncode == 0:
-            table = np.genfromtxt(out / "eigenvalues.csv", delimiter=",", names=True)
-            ours = np.sort(table["laplace_beltrami"])
-            surfels = int(re.search(r"N = (\d+) surfels", run.stdout).group(1))
-            d_error = "%.2f%%" % (100 * worst(ours, exact, args.count))
-        else:
-            surfels, d_error = 0, "refused: " + run.stderr.strip().splitlines()[-1][:80]
+        digilap_runs = []
+        for variant in args.variants.split(","):
+            out = work / ("out_%s_%g_%s" % (shape, h, variant))
+            flags = ["--matrix-free"] if variant == "matrix-free" else []
+            run, d_wall, d_peak = timed([args.app, "--volume", str(path), "--h", str(h), "--count", str(args.count), "--draw", "0",
+                                         "--quiet", "--out", str(out)] + flags)
+            if run.returncode == 0:
+                table = np.genfromtxt(out / "eigenvalues.csv", delimiter=",", names=True)
+                ours = np.sort(table["laplace_beltrami"])
+                surfels = int(re.search(r"N = (\d+) surfels", run.stdout).group(1))
+                d_error = "%.2f%%" % (100 * worst(ours, exact, args.count))
+            else:
+                surfels, d_error = 0, "refused: " + run.stderr.strip().splitlines()[-1][:80]
+            digilap_runs.append((variant, surfels, d_wall, d_peak, d_error))
+            subprocess.run(["rm", "-rf", str(out)])
         script = ("import sys, numpy as np; sys.path.insert(0, %r); import mesh_fem; "
                   "r = mesh_fem.shape_dna(np.load(%r).astype(bool), %r, %d, %d); "
                   "print(r['vertices'], *r['eigenvalues'])" % (str(REFERENCE), str(path), h, args.count, args.smoothing))
         run, f_wall, f_peak = timed(["/usr/bin/python3", "-c", script])
         fields = run.stdout.split()
         vertices, theirs = int(fields[0]), np.array([float(v) for v in fields[1:]])
-        rows.append((shape, h, surfels, vertices, d_wall, d_peak, f_wall, f_peak, d_error,
-                     "%.2f%%" % (100 * worst(theirs, exact, args.count))))
-        subprocess.run(["rm", "-rf", str(out), str(path)])
-    print("| case | N surfels / mesh vertices | digilap wall / peak | FEM (Taubin %d) wall / peak | wall ratio | "
+        f_error = "%.2f%%" % (100 * worst(theirs, exact, args.count))
+        for variant, surfels, d_wall, d_peak, d_error in digilap_runs:
+            rows.append((shape, h, variant, surfels, vertices, d_wall, d_peak, f_wall, f_peak, d_error, f_error))
+        subprocess.run(["rm", "-rf", str(path)])
+    print("| case | digilap | N surfels / mesh vertices | digilap wall / peak | FEM (Taubin %d) wall / peak | wall ratio | "
           "memory ratio | digilap worst error | FEM worst error |" % args.smoothing)
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print("| %s h = %g, %d eigenpairs | %d / %d | %.1f s / %.0f MB | %.1f s / %.0f MB | %.1f× | %.1f× | %s | %s |"
-              % (r[0], r[1], args.count, r[2], r[3], r[4], r[5], r[6], r[7], r[4] / r[6], r[5] / r[7], r[8], r[9]))
+        print("| %s h = %g, %d eigenpairs | %s | %d / %d | %.1f s / %.0f MB | %.1f s / %.0f MB | %.2f× | %.2f× | %s | %s |"
+              % (r[0], r[1], args.count, r[2], r[3], r[4], r[5], r[6], r[7], r[8], r[5] / r[7], r[6] / r[8], r[9], r[10]))
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 #include "label_batch.hpp"
 
 #include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include <omp.h>
@@ -51,10 +52,9 @@ StructureResult run_structure(std::int64_t label, const std::string& name, surfa
     r.zero_area = sfe.measures.clamped;
     r.area = sfe.measures.total_area();
     r.volume = surface::enclosed_volume(sfe.surfels);
-    const surface::SurfaceOperator op = surface::heat_laplacian(sfe.surfels, sfe.measures, op_options);
-    r.t = op.t;
     SpectrumOptions so;
-    const Eigen::Index support = op.rows() - static_cast<Eigen::Index>(op.massless_rows().size());
+    so.memory_limit_bytes = op_options.memory_limit_bytes;
+    const Eigen::Index support = static_cast<Eigen::Index>(sfe.surfels.size()) - static_cast<Eigen::Index>(sfe.measures.clamped);
     so.count = static_cast<int>(std::min<Eigen::Index>(batch.count, support - 1));
     if (so.count < batch.count) {
       r.status = "partial";
@@ -62,7 +62,16 @@ StructureResult run_structure(std::int64_t label, const std::string& name, surfa
                  std::to_string(batch.count);
     }
     if (so.count < 1) throw Error("too few surfels with area (" + std::to_string(support) + ") for a spectrum");
-    const Spectrum s = smallest_eigenpairs(op, so);
+    Spectrum s;
+    if (!batch.matrix_free) {
+      const surface::SurfaceOperator op = surface::heat_laplacian(sfe.surfels, sfe.measures, op_options);
+      r.t = op.t;
+      s = smallest_eigenpairs(op, so);
+    } else {  // products in O(N) memory (--matrix-free): for large structures
+      const surface::MatrixFreeSurfaceOperator op(sfe.surfels, sfe.measures, op_options);
+      r.t = op.t();
+      s = smallest_eigenpairs(op, so);
+    }
     r.raw.head(s.eigenvalues.size()) = s.eigenvalues;
     r.estimates.head(s.laplace_beltrami.size()) = s.laplace_beltrami;
   } catch (const std::exception& e) {

@@ -22,6 +22,7 @@ struct LabelBatchOptions {
   Normalization normalize = Normalization::None;
   bool reweight = false;        ///< lambda_i / i for i >= 1 (ev0 stays)
   int count = 50;               ///< eigenvalues per structure
+  bool matrix_free = false;     ///< products (surface::MatrixFreeSurfaceOperator) instead of the assembled operator
 };
 
 /// "all" (every label of the volume) or a list of labels and ranges, ascending and unique.

@@ -162,7 +162,8 @@ int main(int argc, char** argv) {
   app.add_flag("--reweight", batch.reweight, "With --labels: lambda_i / i (ShapeDNA's reweighting)");
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
   app.add_flag("--matrix-free", matrix_free,
-               "Never store L: products computed on the fly and LOBPCG; memory O(N count) (curves: geodesic distance only)");
+               "Never store L: products computed on the fly and LOBPCG; memory O(N count) (curves: geodesic distance\n"
+               "only; surfaces: O(N) memory, preconditioned, the choice for large N, see docs/benchmarks.md)");
   app.add_flag("--per-contour", per_contour,
                "The spectrum of each contour on its own (one table per contour; the shape descriptor of each object)");
   app::add_output_options(app, out_dir, quiet);
@@ -173,9 +174,9 @@ int main(int argc, char** argv) {
     if (!labels.empty()) {
       if (fe_options.volume.empty()) throw Error("--labels needs a segmentation (--volume FILE)");
       if (fe_options.label >= 0) throw Error("--labels and --label: give one of them");
-      if (matrix_free) throw Error("--matrix-free is for curves");
       batch.labels = labels;
       batch.count = count_option->count() > 0 ? spectrum_options.count : 50;
+      batch.matrix_free = matrix_free;
       app::run_label_batch(fe_options, op_options, batch, out_dir, progress);
       return 0;
     }

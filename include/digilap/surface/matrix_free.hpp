@@ -45,6 +45,8 @@ public:
   /// Each surface's rows [row_offset[p], row_offset[p + 1]) and heat time.
   const std::vector<Eigen::Index>& row_offset() const { return row_offset_; }
   const std::vector<double>& part_t() const { return part_t_; }
+  /// The kernel's cut on surface p, k sqrt(t_p).
+  double part_cut(std::size_t p) const;
   std::size_t parts() const { return row_offset_.size() - 1; }
   /// The diagonal of A (minus the row's other entries summed; 0 for a surfel of zero area).
   const Eigen::VectorXd& stiffness_diagonal() const { return a_diagonal_; }
@@ -77,9 +79,10 @@ private:
 /// needs a third of the products it needs unpreconditioned. With the conventions of smallest_eigenpairs(const HeatOperator&): eigenvectors
 /// M-orthonormal, zero-area surfels given the heat-kernel average of their neighbours,
 /// laplace_beltrami per surface's t. The same eigenvalues as the assembled operator's to the
-/// solver's tolerance. Throws digilap::Error for a count out of range, a surface without area,
-/// a surface whose surfels of positive area fall apart (use the assembled operator), or no
-/// convergence within options.max_iterations.
+/// solver's tolerance; where zero-area surfels cut a surface, each piece is solved on its own
+/// (one zero eigenvalue each), as the assembled operator's components are. Throws
+/// digilap::Error for a count out of range, a surface without area, or no convergence within
+/// options.max_iterations.
 Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const SpectrumOptions& options = {});
 
 }  // namespace digilap::surface
