@@ -12,7 +12,7 @@ namespace digilap {
 
 namespace {
 
-void check_step(double h) { require_positive("grid step h", h); }
+void check_step(double h) { require_grid_step("grid step h", h); }
 
 
 std::string index_range() { return "[-" + std::to_string(kMaxPixelIndex) + ", " + std::to_string(kMaxPixelIndex) + "]"; }

@@ -15,58 +15,123 @@ namespace {
 void check_step(double dt) { require_positive("HeatFlow: the time step dt", dt); }
 }  // namespace
 
-HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme) : dt_(dt) {
+HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt, TimeScheme scheme, HeatSolver solver)
+    : dt_(dt) {
   check_step(dt);
   for (Eigen::Index i = 0; i < mass.size(); ++i)
     if (!(mass[i] > 0))
       throw Error("HeatFlow: the mass of row " + std::to_string(i) +
                   " is not > 0 (an element of zero measure has no equation in (A, M)): build the flow from the operator "
                   "(HeatFlow(op, dt)), which steps such elements with their row of L");
-  factorize(A, mass, scheme);
+  factorize(A, mass, scheme, solver == HeatSolver::Auto ? HeatSolver::Factorization : solver);
 }
 
-HeatFlow::HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme) : dt_(dt) {
+HeatFlow::HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme, HeatSolver solver) : dt_(dt) {
   check_step(dt);
   if (op.A.rows() != op.rows() || op.mass.size() != op.rows())
     throw Error("HeatFlow: the operator has no stiffness A (assembled with stiffness = false) or no masses");
   detail::check_masses(op.mass, "HeatFlow");
   massless_ = op.massless_rows();
   detail::check_massless_reach_mass(op, massless_, "HeatFlow");
-  factorize(op.A, op.mass, scheme);
+  if (solver == HeatSolver::Auto) solver = op.dimension >= 2 ? HeatSolver::ConjugateGradient : HeatSolver::Factorization;
+  factorize(op.A, op.mass, scheme, solver);
   if (!massless_.empty()) {
     L_massless_.resize(static_cast<Eigen::Index>(massless_.size()), op.rows());
     for (std::size_t k = 0; k < massless_.size(); ++k) L_massless_.row(static_cast<Eigen::Index>(k)) = op.L.row(massless_[k]);
   }
 }
 
-void HeatFlow::factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme) {
+void HeatFlow::factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme, HeatSolver solver) {
   if (A.rows() != mass.size() || A.cols() != mass.size())
     throw Error("HeatFlow: A and the masses have different sizes");
   theta_ = scheme == TimeScheme::ImplicitEuler ? 1.0 : 0.5;
+  solver_kind_ = solver;
   mass_ = mass;
-  ColMatrix M(mass.size(), mass.size());
-  M.reserve(Eigen::VectorXi::Ones(mass.size()));
-  // A massless row and column of M - theta dt A vanish: put 1 on its diagonal, which decouples
-  // it (its value is then set from L in step()).
-  for (Eigen::Index i = 0; i < mass.size(); ++i) M.insert(i, i) = mass[i] > 0 ? mass[i] : 0.0;
-  const ColMatrix Ac = A;
-  ColMatrix lhs = M - (theta_ * dt_) * Ac;
-  for (Eigen::Index i : massless_) lhs.coeffRef(i, i) = 1.0;
-  rhs_ = M + ((1.0 - theta_) * dt_) * Ac;
+  A_ = A;
   // The components of the flow, each with its total mass: its heat sum_i mu_i u_i is conserved.
   const detail::Components components = detail::connected_components(A);
   component_of_row_ = components.of_row;
   component_mass_.assign(components.rows.size(), 0.0);
   for (Eigen::Index i = 0; i < mass.size(); ++i)
     if (mass[i] > 0) component_mass_[component_of_row_[i]] += mass[i];
+  // A massless row and column of M - theta dt A vanish: put 1 on its diagonal, which decouples
+  // it (its value is then set from L in step()).
+  lhs_diagonal_ = mass - (theta_ * dt_) * A.diagonal();
+  for (Eigen::Index i : massless_) lhs_diagonal_[i] = 1.0;
+  if (solver == HeatSolver::ConjugateGradient) {
+    inverse_diagonal_.resize(mass.size());
+    for (Eigen::Index i = 0; i < mass.size(); ++i) {
+      if (!(lhs_diagonal_[i] > 0))
+        throw Error("HeatFlow: M - theta dt A has a diagonal entry that is not > 0 (A must be negative semidefinite and M >= 0)");
+      inverse_diagonal_[i] = 1.0 / lhs_diagonal_[i];
+    }
+    return;
+  }
+  ColMatrix M(mass.size(), mass.size());
+  M.reserve(Eigen::VectorXi::Ones(mass.size()));
+  for (Eigen::Index i = 0; i < mass.size(); ++i) M.insert(i, i) = mass[i] > 0 ? mass[i] : 0.0;
+  ColMatrix lhs = M - (theta_ * dt_) * ColMatrix(A);
+  for (Eigen::Index i : massless_) lhs.coeffRef(i, i) = 1.0;  // on M's diagonal: no insertion
   solver_.compute(lhs);
   if (solver_.info() != Eigen::Success)
     throw Error("HeatFlow: the factorization of M - theta dt A failed (A must be negative semidefinite and M >= 0)");
 }
 
+// Preconditioned conjugate gradients, written here rather than with Eigen's ConjugateGradient
+// for two reasons: its product with a row-major matrix runs on Eigen's threads whatever the
+// caller's team, and the step's operator must give the same bits for any thread count (rows in
+// parallel, each summed in order; the dot products serial); and it starts from the previous
+// state, which is within dt of the answer.
+Eigen::VectorXd HeatFlow::solve(const Eigen::VectorXd& b, const Eigen::VectorXd& guess) const {
+  const Eigen::Index n = b.size();
+  const int* outer = A_.outerIndexPtr();
+  const int* inner = A_.innerIndexPtr();
+  const double* value = A_.valuePtr();
+  const double c = theta_ * dt_;
+  // y = (M - theta dt A) x, the diagonal from lhs_diagonal_ (which holds the massless rows' 1).
+  auto apply = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+#pragma omp parallel for schedule(static, 1024)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double sum = 0;
+      for (int e = outer[i]; e < outer[i + 1]; ++e)
+        if (inner[e] != i) sum += value[e] * x[inner[e]];
+      y[i] = lhs_diagonal_[i] * x[i] - c * sum;
+    }
+  };
+  Eigen::VectorXd x = guess, r(n), z(n), p(n), q(n);
+  apply(x, q);
+  r = b - q;
+  const double stop = 1e-12 * b.norm();
+  z = inverse_diagonal_.cwiseProduct(r);
+  p = z;
+  double rz = r.dot(z);
+  int k = 0;
+  // CG needs about sqrt(cond) iterations, cond(M - theta dt A) <= 1 + 2 theta dt max(-A_ii / m_i):
+  // a few for dt near t; the limit only stops a hopeless case.
+  const int limit = 10000;
+  while (r.norm() > stop && k < limit) {
+    apply(p, q);
+    const double alpha = rz / p.dot(q);
+    x += alpha * p;
+    r -= alpha * q;
+    z = inverse_diagonal_.cwiseProduct(r);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+    ++k;
+  }
+  last_iterations_ = k;
+  if (!(r.norm() <= stop))
+    throw Error("HeatFlow: conjugate gradients did not reach 1e-12 in " + std::to_string(limit) +
+                " iterations (dt is very large against the heat time t); use a smaller dt or HeatSolver::Factorization");
+  return x;
+}
+
 Eigen::VectorXd HeatFlow::step(const Eigen::VectorXd& u) const {
-  if (u.size() != rhs_.rows()) throw Error("HeatFlow::step: the vector has the wrong size");
-  Eigen::VectorXd next = solver_.solve(rhs_ * u);
+  if (u.size() != A_.rows()) throw Error("HeatFlow::step: the vector has the wrong size");
+  // M u + (1 - theta) dt A u, massless rows 0 (their column of A is 0 and their mass too).
+  const Eigen::VectorXd rhs = mass_.cwiseMax(0.0).cwiseProduct(u) + ((1.0 - theta_) * dt_) * (A_ * u);
+  Eigen::VectorXd next = solver_kind_ == HeatSolver::ConjugateGradient ? solve(rhs, u) : Eigen::VectorXd(solver_.solve(rhs));
   conserve_heat(u, next);
   if (!massless_.empty()) {
     // u_i' (1 - theta dt L_ii) = u_i + dt ((1 - theta) (L u)_i + theta sum_{j != i} L_ij u_j'),

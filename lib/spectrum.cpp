@@ -9,6 +9,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <Spectra/SymGEigsShiftSolver.h>
+#include <omp.h>
 
 #include <cmath>
 #include <memory>
@@ -28,6 +29,8 @@ class SimplicialLDLT : public Eigen::SimplicialLDLT<ColMatrix> {
 public:
   /// Flops of the numeric factorization, sum over columns of (nonzeros below the diagonal)^2.
   double factorization_flops() const { return m_nonZerosPerCol.cast<double>().array().square().sum(); }
+  /// Bytes of the factor L (values and row indices) and of D.
+  double factor_bytes() const { return 12.0 * m_nonZerosPerCol.cast<double>().sum() + 8.0 * static_cast<double>(m_nonZerosPerCol.size()); }
 };
 
 // y = (-A - sigma M)^{-1} x through a simplicial LDL^T: the natural factorization for this
@@ -61,6 +64,8 @@ public:
     return (solver_.vectorD().array() < 0).count();
   }
   double factorization_flops() const { return solver_.factorization_flops(); }
+  /// The factor, the stored -A and the shifted copy refactorized for each shift.
+  double bytes() const { return solver_.factor_bytes() + 2 * 12.0 * static_cast<double>(minus_A_.nonZeros()); }
 
 private:
   bool factorize(double sigma) {
@@ -280,6 +285,19 @@ Spectrum connected_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, 
     if (Spectrum s; o.method == SpectrumMethod::Auto && lobpcg_spectrum(A, mass, count, o, op->factorization_flops(), s))
       return s;
   }
+  // Memory first (issue 25: 5000 eigenpairs of 20,036 surfels took 2.9 GB unannounced): the
+  // factor, Lanczos's basis of ncv vectors and the eigenvectors, against the limit.
+  const double ncv = static_cast<double>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(2 * count + 1, 20)));
+  const double lanczos_bytes = op->bytes() + 2.0 * 8.0 * static_cast<double>(n) * (ncv + count);
+  if (lanczos_bytes > o.memory_limit_bytes) {
+    const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs: " << count << " eigenpairs of a part of " << n << " rows need about " << lanczos_bytes / 1e9
+        << " GB (factorization and Lanczos)";
+    if (block < n / 2) msg << " or " << detail::lobpcg_bytes(n, block) / 1e9 << " GB (LOBPCG)";
+    msg << ", above the memory limit of " << o.memory_limit_bytes / 1e9 << " GB; ask for fewer eigenpairs or raise the limit";
+    throw Error(msg.str());
+  }
   int asked = count;
   for (int attempt = 0; attempt < 3 && 2 * asked + 1 <= n; ++attempt) {
     Spectrum s = lanczos(*op, mass, asked, o);
@@ -320,6 +338,12 @@ std::vector<detail::SpectrumPart> solve_parts(const SparseMatrix& A, const Eigen
   const auto count = static_cast<Eigen::Index>(parts.size());
 #pragma omp parallel for schedule(dynamic) if (count > 1)
   for (Eigen::Index p = 0; p < count; ++p) {
+    // Parts side by side: this thread's own count set to 1. Otherwise Eigen, which sizes its
+    // product blocking by omp_get_max_threads() (still the outer count inside a nested, serial
+    // region), sums as for two threads while it runs on one, and the last bits of every part
+    // then depend on the thread count (issue 25): with it, each part gives the bits of a
+    // one-thread run. A lone part keeps every thread for its own parallel loops.
+    if (omp_get_num_threads() > 1) omp_set_num_threads(1);
     try {
       detail::SpectrumPart& part = parts[p];
       part.rows = std::move(rows_of_part[p]);

@@ -122,6 +122,9 @@ const std::vector<Case> kCases = {
     {"h_negative", "operator", "--h -0.1", "", false, "must be > 0 and finite"},
     {"h_nan", "operator", "--h nan", "", false, "must be > 0 and finite"},
     {"h_infinite", "operator", "--h inf", "", false, "must be > 0 and finite"},
+    // Steps whose areas or eigenvalues overflow or vanish in double (SPEC: any unit, but finite results).
+    {"h_vanishing", "operator", "--h 1e-40", "", false, "grid step h = 1e-40 is outside [1e-30, 1e+30]"},
+    {"volume_h_vast", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --h 1e40", "", false, "is outside [1e-30, 1e+30]"},
     {"h_too_fine", "operator", "--h 1e-12", "", false, "too fine"},
     {"h_not_a_number", "operator", "--h abc", "", false, "must be a number"},
     {"t_negative", "operator", "--t -1", "", false, "t must be > 0 and finite"},
@@ -167,6 +170,16 @@ const std::vector<Case> kCases = {
     {"surface_unknown_key", "spectrum", "--shape ellipsoid:d=2", "", false, "unknown parameter 'd'"},
     {"surface_matrix_free", "spectrum", "--shape sphere --h 0.2 --count 5 --matrix-free --out {dir}/mf", "", true, ", matrix-free"},
     {"surface_per_contour", "spectrum", "--shape sphere --per-contour", "", false, "--per-contour is for curves"},
+    // Options a surface or a volume does not use are refused with the reason, never ignored (issue 25).
+    {"surface_distance", "spectrum", "--shape sphere --h 0.2 --distance euclidean", "", false, "--distance is for curves: on a surface"},
+    {"volume_placement", "heat", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --placement linels", "", false, "--placement is for curves"},
+    {"volume_invert", "operator", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --invert", "", false, "--invert is for images"},
+    {"volume_exact_normals", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --normals exact", "", false, "a volume has no exact surface"},
+    {"curve_couple_surfaces", "spectrum", "--shape flower --couple-surfaces", "", false, "--couple-surfaces is for surfaces"},
+    // --normals exact on a reference surface is applied: the area is the exact normals' (SPEC 7).
+    {"surface_exact_normals", "spectrum", "--shape sphere --h 0.2 --count 5 --normals exact --out {dir}/exact", "", true, ", exact normals"},
+    // The eigen-solver's own memory is estimated first (issue 25: 2.9 GB unannounced for --count 5000).
+    {"spectrum_memory", "spectrum", "--shape sphere --h 0.1 --count 400 --memory-limit 2e7", "", false, "GB (factorization and Lanczos) or 0.1"},
     {"surface_count_too_large", "spectrum", "--shape sphere --h 0.5 --count 500", "", false, "count must be in [1,"},
     {"volume_spectrum", "spectrum", "--volume {data}/../fuzz/volume_corpus/ball_u1.npy --count 5 --out {dir}/vol", "", true, "ball_u1.npy, h = 1,"},
     {"volume_label_absent", "spectrum", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --label 9", "", false, "no voxel has the label 9"},

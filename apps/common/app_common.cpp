@@ -1,5 +1,6 @@
 #include "app_common.hpp"
 
+#include "digilap/surface/length_scale.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include <algorithm>
@@ -92,7 +93,10 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
           "BYTES > 0"))
       ->capture_default_str();
   app.add_flag("--one-heat-time{false}", o.per_contour_time,
-               "Geodesic: one t for all contours, from the set's l (default: each contour's own l_c)");
+               "One t for all contours (surfaces), from the set's l (default: each contour's (surface's) own l_c)");
+  app.add_flag("--couple-surfaces", o.couple_surfaces,
+               "Surfaces: kernel weights between every pair of surfels within the cut, across connected surfaces "
+               "(ambient coupling: one zero eigenvalue for the set; default: each surface its own operator)");
 }
 
 double ii_k_R(double given, int dimension) {
@@ -212,13 +216,30 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     voxels = surface::read_volume(o.volume, vo);
     name = std::filesystem::path(o.volume).filename().string();
   }
-  SurfaceFrontEnd fe = surface_front_end(std::move(voxels), name, o, progress, true);
+  SurfaceFrontEnd fe = surface_front_end(std::move(voxels), name, o, progress, true, shape.get());
   fe.shape = std::move(shape);
   return fe;
 }
 
+void check_options_for_input(const CLI::App& app, const FrontEndOptions& o) {
+  auto given = [&](const char* name) { return app.get_option_no_throw(name) != nullptr && app.count(name) > 0; };
+  if (is_surface_input(o)) {
+    const char* what = o.volume.empty() ? "a surface" : "a volume";
+    if (given("--distance"))
+      throw Error(std::string("--distance is for curves: on ") + what +
+                  " the kernel takes the Euclidean distance between the surfels of one connected surface "
+                  "(--couple-surfaces extends it across surfaces)");
+    if (given("--placement")) throw Error(std::string("--placement is for curves (pointels or linels): ") + what + " has surfels only");
+    if (given("--invert")) throw Error("--invert is for images: choose a volume's object with --label or --threshold");
+    if (o.normals == "exact" && !o.volume.empty())
+      throw Error("--normals exact needs a reference surface (--shape sphere, ellipsoid or torus): a volume has no exact surface");
+  } else if (given("--couple-surfaces")) {
+    throw Error("--couple-surfaces is for surfaces and volumes (curves: --distance euclidean couples the contours)");
+  }
+}
+
 SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& name, const FrontEndOptions& o, Progress& progress,
-                                  bool started) {
+                                  bool started, const surface::Surface* shape) {
   if (!started) progress.start("surfels");
   SurfaceFrontEnd fe;
   fe.voxels = std::move(voxels);
@@ -235,7 +256,19 @@ SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& n
     throw Error("every surface has fewer than " + std::to_string(o.min_linels) + " surfels: lower --min-size");
   if (fe.surfels.size() == 0) throw Error("the digitization is empty: use a smaller h");
   progress.start("normals");
-  fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {ii_k_R(o.k_R, 2), o.length_scale, o.length_quantile});
+  if (o.normals == "exact") {
+    if (shape == nullptr) throw Error("--normals exact needs a reference surface (--shape sphere, ellipsoid or torus)");
+    // The exact normals of the shape at the closest point of each surfel centre; l as given, or
+    // measured on the voxels as the II normals would (it sets t).
+    LengthScale measured;
+    if (o.length_scale == 0) measured = surface::length_scale(fe.voxels, fe.surfels, {LengthScaleOptions{}.k_R, o.length_quantile});
+    fe.normals = surface::exact_normals(*shape, fe.surfels, o.length_scale > 0 ? o.length_scale : measured.length);
+    fe.normals.surface_length_scales = measured.per_contour;
+    for (double& l_c : fe.normals.surface_length_scales)
+      if (!(l_c > 0)) l_c = fe.normals.length_scale;
+  } else {
+    fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {ii_k_R(o.k_R, 2), o.length_scale, o.length_quantile});
+  }
   progress.finish();
   fe.measures = surface::measures(fe.surfels, fe.normals);
   if (!progress.quiet())

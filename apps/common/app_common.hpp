@@ -92,7 +92,11 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& options, Progress& 
 /// The same from voxels already read (one structure of a segmentation); `started`: the caller
 /// has a progress stage open that this one finishes.
 SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& name, const FrontEndOptions& options,
-                                  Progress& progress, bool started = false);
+                                  Progress& progress, bool started = false, const surface::Surface* shape = nullptr);
+/// After parsing: refuses, with the reason, an option given explicitly that the input does not
+/// use (--distance, --placement and --invert on surfaces and volumes, --normals exact on images
+/// and volumes, --couple-surfaces on curves) rather than ignoring it (issue 25).
+void check_options_for_input(const CLI::App& app, const FrontEndOptions& options);
 
 /// The heat Laplacian of the front end's contours, timed as the stage "operator".
 ContourOperator build_operator(const FrontEnd& fe, const HeatLaplacianOptions& options, Progress& progress);

@@ -47,8 +47,14 @@ Snapshots run_flow(const HeatFlow& flow, const Eigen::VectorXd& u0, double tau, 
 // temperature: cosine = the x coordinate about the centroid (on a sphere the first mode, which
 // decays like exp(-2 tau / r^2)), bump = a Gaussian around the first surfel, dirac = unit heat on
 // it. Writes heat.csv, heat.ply (one field per snapshot) and heat.svg.
+HeatSolver solver_named(const std::string& name) {
+  return name == "cg" ? HeatSolver::ConjugateGradient : name == "factorization" ? HeatSolver::Factorization : HeatSolver::Auto;
+}
+const char* solver_name(HeatSolver s) { return s == HeatSolver::ConjugateGradient ? "conjugate gradients" : "factorization"; }
+
 int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOptions& op_options, const std::string& initial,
-                 double tau, int steps, int snapshots, bool euler, const std::string& out_dir, app::Progress& progress) {
+                 double tau, int steps, int snapshots, bool euler, HeatSolver solver, const std::string& out_dir,
+                 app::Progress& progress) {
   const app::SurfaceFrontEnd fe = app::run_surface_front_end(fe_options, progress);
   progress.start("operator");
   const surface::SurfaceOperator op = surface::heat_laplacian(fe.surfels, fe.measures, op_options);
@@ -66,14 +72,15 @@ int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOpti
     if (!(op.mass[0] > 0)) throw Error("the first surfel has zero area: choose another initial function");
     u0[0] = 1 / op.mass[0];
   }
-  progress.start("factorize");
-  const HeatFlow flow(op, tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
+  progress.start(solver == HeatSolver::Factorization ? "factorize" : "heat flow setup");
+  const HeatFlow flow(op, tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson, solver);
   progress.finish();
   const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
   const bool sphere = fe.shape && fe.shape->name() == "sphere";
   const double first = sphere ? 2 / (fe.shape->area() / (4 * kPi)) : 0, a0 = modal_amplitude(u0, mode, op.mass);
-  std::printf("# %s, h = %g, N = %ld surfels, l = %.4g, R = %.4g, t = %.4g, scheme %s, dt = %g\n", fe.name.c_str(), fe.voxels.h(),
-              static_cast<long>(n), fe.measures.length_scale, fe.measures.normal_radius, op.t, euler ? "euler" : "cn", tau / steps);
+  std::printf("# %s, h = %g, N = %ld surfels, l = %.4g, R = %.4g, t = %.4g, scheme %s, dt = %g, %s\n", fe.name.c_str(), fe.voxels.h(),
+              static_cast<long>(n), fe.measures.length_scale, fe.measures.normal_radius, op.t, euler ? "euler" : "cn", tau / steps,
+              solver_name(flow.solver()));
   std::printf("| tau | amplitude along x a(tau)/a(0) | %s | total heat |\n|---|---|---|---|\n",
               sphere ? "exp(-2 tau / r^2) (sphere: x is the first mode)" : "(no closed form off the sphere)");
   for (std::size_t k = 0; k < snaps.size(); ++k) {
@@ -114,7 +121,7 @@ int main(int argc, char** argv) {
                "Writes <out>/heat.csv (one column per snapshot) and <out>/heat.svg."};
   app::FrontEndOptions fe_options;
   HeatLaplacianOptions op_options;
-  std::string initial = "cosine", scheme = "cn", out_dir = "out/heat";
+  std::string initial = "cosine", scheme = "cn", solver = "auto", out_dir = "out/heat";
   double tau = 0.5;
   int steps = 100, snapshots = 5;
   bool quiet = false;
@@ -128,18 +135,25 @@ int main(int argc, char** argv) {
   app.add_option("--scheme", scheme, "euler (implicit Euler) or cn (Crank-Nicolson)")
       ->check(CLI::IsMember({"euler", "cn"}))
       ->capture_default_str();
+  app.add_option("--solver", solver,
+                 "Each step's linear system: auto (curves: factorization; surfaces: conjugate gradients, whose memory "
+                 "stays O(N) where the factors would fill in), factorization, or cg")
+      ->check(CLI::IsMember({"auto", "factorization", "cg"}))
+      ->capture_default_str();
   app.add_option("--snapshots", snapshots, "Snapshots written and drawn (at equal times, tau = 0 included)")
       ->capture_default_str();
   app::add_output_options(app, out_dir, quiet);
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
+    app::check_options_for_input(app, fe_options);
     if (!(tau > 0) || !std::isfinite(tau)) throw Error("--tau must be > 0 and finite");
     if (steps < 1) throw Error("--steps must be >= 1");
     if (snapshots < 2 || snapshots > steps + 1) throw Error("--snapshots must be in [2, steps + 1]");
     app::Progress progress(quiet);
     if (app::is_surface_input(fe_options))
-      return surface_heat(fe_options, op_options, initial, tau, steps, snapshots, scheme == "euler", out_dir, progress);
+      return surface_heat(fe_options, op_options, initial, tau, steps, snapshots, scheme == "euler", solver_named(solver), out_dir,
+                          progress);
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     const ContourOperator op = app::build_operator(fe, op_options, progress);
 
@@ -158,8 +172,9 @@ int main(int argc, char** argv) {
       u0[0] = 1.0 / op.mass[0];  // unit heat
     }
 
-    progress.start("factorize");
-    const HeatFlow flow(op, tau / steps, scheme == "euler" ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson);
+    progress.start(solver_named(solver) == HeatSolver::ConjugateGradient ? "heat flow setup" : "factorize");
+    const HeatFlow flow(op, tau / steps, scheme == "euler" ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson,
+                        solver_named(solver));
     progress.finish();
     const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
 

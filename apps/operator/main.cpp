@@ -32,6 +32,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
+    app::check_options_for_input(app, fe_options);
     app::Progress progress(quiet);
     if (app::is_surface_input(fe_options)) {  // a surface or a volume: L, A, M and surfels.ply
       const app::SurfaceFrontEnd sfe = app::run_surface_front_end(fe_options, progress);

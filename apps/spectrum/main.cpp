@@ -69,9 +69,9 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   }
   if (bar.shown) progress.end_bar();
   const Eigen::VectorXd& lb = s.laplace_beltrami;
-  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g%s\n", name.c_str(), h,
+  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g%s%s\n", name.c_str(), h,
               static_cast<long>(surfels.size()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
-              mu.normal_radius, t, matrix_free ? ", matrix-free" : "");
+              mu.normal_radius, t, fe.normals == "exact" ? ", exact normals" : "", matrix_free ? ", matrix-free" : "");
   std::printf("# eigen-solver: %d iterations, %d products\n", s.iterations, s.operations);
   if (s.massless > 0)
     std::printf("# %ld surfels of zero area (II normal orthogonal to the surfel): off the support of mu, their "
@@ -170,6 +170,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return app::guarded_main([&] {
+    app::check_options_for_input(app, fe_options);
     app::Progress progress(quiet);
     if (!labels.empty()) {
       if (fe_options.volume.empty()) throw Error("--labels needs a segmentation (--volume FILE)");

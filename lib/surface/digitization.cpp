@@ -17,7 +17,7 @@ void check_index(const char* what, std::int64_t v) {
 }
 // One offset per (y, z) row between the first and the last: estimated before allocating.
 void check_rows(std::int64_t nj, std::int64_t nk) {
-  const double bytes = 32.0 * static_cast<double>(nj) * static_cast<double>(nk);  // offsets and row lists while building
+  const double bytes = 8.0 * static_cast<double>(nj) * static_cast<double>(nk);
   if (bytes > 8e9) {
     std::ostringstream msg;
     msg << "voxel set: " << nj << " x " << nk << " rows would take about " << bytes / 1e9
@@ -27,7 +27,7 @@ void check_rows(std::int64_t nj, std::int64_t nk) {
 }
 }  // namespace
 
-VoxelSet::VoxelSet(double h) : h_(h) { require_positive("voxel set: grid step h", h); }
+VoxelSet::VoxelSet(double h) : h_(h) { require_grid_step("voxel set: grid step h", h); }
 
 bool VoxelSet::contains(std::int32_t i, std::int32_t j, std::int32_t k) const {
   return digilap::detail::in_runs(row_begin(j, k), row_end(j, k), i);
@@ -39,48 +39,81 @@ std::size_t VoxelSet::memory_bytes() const {
   return runs_.capacity() * sizeof(Run) + row_offset_.capacity() * sizeof(std::int64_t);
 }
 
-VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
-                             std::vector<std::vector<Run>> rows) {
+VoxelSet VoxelSet::from_compressed_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
+                                        std::vector<std::int64_t> row_offset, std::vector<Run> runs) {
   VoxelSet set(h);
-  if (nj < 0 || nk < 0 || rows.size() != static_cast<std::size_t>(nj) * static_cast<std::size_t>(nk))
-    throw Error("voxel set: the rows must be nj x nk");
+  if (nj < 0 || nk < 0 || row_offset.size() != static_cast<std::size_t>(nj) * static_cast<std::size_t>(nk) + 1 ||
+      row_offset.front() != 0 || row_offset.back() != static_cast<std::int64_t>(runs.size()))
+    throw Error("voxel set: the row offsets must be nj x nk + 1, from 0 to the number of runs");
   if (nj > 0 && nk > 0) {
     check_index("row j", j0), check_index("row j", std::int64_t(j0) + nj - 1);
     check_index("row k", k0), check_index("row k", std::int64_t(k0) + nk - 1);
   }
+  for (std::size_t r = 0; r + 1 < row_offset.size(); ++r) {
+    if (row_offset[r + 1] < row_offset[r] || row_offset[r + 1] > static_cast<std::int64_t>(runs.size()))
+      throw Error("voxel set: the row offsets must not decrease and must end at the number of runs");
+    for (std::int64_t q = row_offset[r]; q < row_offset[r + 1]; ++q) {
+      const Run& run = runs[static_cast<std::size_t>(q)];
+      if (run.end <= run.begin || (q > row_offset[r] && run.begin <= runs[static_cast<std::size_t>(q - 1)].end))
+        throw Error("voxel set: the runs of a row must be non-empty, sorted and disjoint");
+    }
+    if (row_offset[r + 1] > row_offset[r])
+      check_index("column i", runs[static_cast<std::size_t>(row_offset[r])].begin),
+          check_index("column i", std::int64_t(runs[static_cast<std::size_t>(row_offset[r + 1] - 1)].end) - 1);
+  }
   set.j0_ = j0, set.k0_ = k0, set.nj_ = nj, set.nk_ = nk;
-  set.row_offset_.assign(rows.size() + 1, 0);
+  set.row_offset_ = std::move(row_offset);
+  set.runs_ = std::move(runs);
+  return set;
+}
+
+VoxelSet VoxelSet::from_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
+                             std::vector<std::vector<Run>> rows) {
+  if (nj < 0 || nk < 0 || rows.size() != static_cast<std::size_t>(nj) * static_cast<std::size_t>(nk))
+    throw Error("voxel set: the rows must be nj x nk");
+  std::vector<std::int64_t> row_offset(rows.size() + 1, 0);
+  std::vector<Run> runs;
   for (std::size_t r = 0; r < rows.size(); ++r) {
     digilap::detail::normalize_runs(rows[r]);
-    if (!rows[r].empty()) check_index("column i", rows[r].front().begin), check_index("column i", std::int64_t(rows[r].back().end) - 1);
-    set.runs_.insert(set.runs_.end(), rows[r].begin(), rows[r].end());
-    set.row_offset_[r + 1] = static_cast<std::int64_t>(set.runs_.size());
+    runs.insert(runs.end(), rows[r].begin(), rows[r].end());
+    row_offset[r + 1] = static_cast<std::int64_t>(runs.size());
+    std::vector<Run>().swap(rows[r]);  // release as we go: the peak stays near one copy
   }
-  return set;
+  return from_compressed_rows(h, j0, k0, nj, nk, std::move(row_offset), std::move(runs));
 }
 
 VoxelSet VoxelSet::from_mask(double h, const std::uint8_t* data, std::int64_t nx, std::int64_t ny, std::int64_t nz,
                              std::ptrdiff_t stride_i, std::ptrdiff_t stride_j, std::ptrdiff_t stride_k) {
-  require_positive("VoxelSet::from_mask: h", h);
+  require_grid_step("VoxelSet::from_mask: h", h);
   if (nx < 1 || ny < 1 || nz < 1) throw Error("VoxelSet::from_mask: the mask is empty (" + std::to_string(nx) + " x " +
                                               std::to_string(ny) + " x " + std::to_string(nz) + ")");
   if (std::max({nx, ny, nz}) > kMaxPixelIndex) throw Error("VoxelSet::from_mask: a dimension is above " + std::to_string(kMaxPixelIndex));
   check_rows(ny, nz);
-  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(ny * nz));
-#pragma omp parallel for schedule(static)
-  for (std::int64_t r = 0; r < ny * nz; ++r) {
-    const std::int64_t j = r % ny, k = r / ny;
-    const std::uint8_t* row = data + j * stride_j + k * stride_k;
-    std::vector<Run>& out = rows[static_cast<std::size_t>(r)];
+  // Two passes over the mask (count the runs of each row, then write them where they go): the
+  // storage is the final one, whatever the shape; one list per row would cost 24+ bytes per
+  // row, 2 GB for an 8000 x 8000 x 1 slab (issue 25).
+  const std::int64_t rows = ny * nz;
+  auto scan = [&](std::int64_t r, auto&& emit) {
+    const std::uint8_t* row = data + (r % ny) * stride_j + (r / ny) * stride_k;
     for (std::int64_t i = 0; i < nx;) {
       if (!row[i * stride_i]) { ++i; continue; }
       std::int64_t e = i;
       while (e < nx && row[e * stride_i]) ++e;
-      out.push_back({static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
+      emit(Run{static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
       i = e;
     }
+  };
+  std::vector<std::int64_t> row_offset(static_cast<std::size_t>(rows) + 1, 0);
+#pragma omp parallel for schedule(static)
+  for (std::int64_t r = 0; r < rows; ++r) scan(r, [&](const Run&) { ++row_offset[static_cast<std::size_t>(r) + 1]; });
+  for (std::size_t r = 0; r < static_cast<std::size_t>(rows); ++r) row_offset[r + 1] += row_offset[r];
+  std::vector<Run> runs(static_cast<std::size_t>(row_offset.back()));
+#pragma omp parallel for schedule(static)
+  for (std::int64_t r = 0; r < rows; ++r) {
+    std::int64_t at = row_offset[static_cast<std::size_t>(r)];
+    scan(r, [&](const Run& run) { runs[static_cast<std::size_t>(at++)] = run; });
   }
-  return from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(rows));
+  return from_compressed_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(row_offset), std::move(runs));
 }
 
 VoxelSet VoxelSet::from_voxels(double h, const std::vector<Eigen::Vector3i>& voxels) {
@@ -98,7 +131,7 @@ VoxelSet VoxelSet::from_voxels(double h, const std::vector<Eigen::Vector3i>& vox
 }
 
 VoxelSet digitize(const Surface& surface, double h) {
-  require_positive("digitize: grid step h", h);
+  require_grid_step("digitize: grid step h", h);
   const Eigen::AlignedBox3d box = surface.bounding_box();
   const double extent = std::max(box.min().cwiseAbs().maxCoeff(), box.max().cwiseAbs().maxCoeff());
   if (extent / h > 1e9) {

@@ -172,6 +172,13 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   if (has_spacing && (std::max({dx, dy, dz}) - std::min({dx, dy, dz})) > anisotropy_tolerance * std::max({dx, dy, dz}))
     refuse(path, "anisotropic voxel spacing " + spacing_text(dx, dy, dz, nim->xyz_units) +
                      ": the operator assumes cubic voxels; resample the volume to equal spacing first");
+  // A NIfTI-2 spacing is a double: 1e200 mm would make every area inf (found by the fuzzer).
+  if (o.h == 0 && has_spacing && !(dx >= kMinGridStep && dx <= kMaxGridStep)) {
+    std::ostringstream why;
+    why << "the voxel spacing " << dx << " is outside [" << kMinGridStep << ", " << kMaxGridStep
+        << "], where areas and eigenvalues overflow or vanish; give --h (VolumeOptions::h) in another unit";
+    refuse(path, why.str());
+  }
   std::error_code error;
   const std::uintmax_t file_size = std::filesystem::file_size(path, error);
   if (error) refuse(path, "cannot read its size (" + error.message() + ")");

@@ -38,21 +38,31 @@ inline std::string no_foreground_reason(const VolumeOptions& o) {
 }
 
 /// Voxel (i, j, k), 0 <= i < nx, ..., is in the set when inside(i, j, k); the set has step h.
+/// Two passes (count the runs of each row, then write them): the storage is the final one, at
+/// most 16 bytes per voxel of the grid whatever its shape (no list per row: issue 25).
 template <class Inside>
 VoxelSet voxel_set_from_grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz, Inside&& inside) {
-  std::vector<std::vector<Run>> rows(static_cast<std::size_t>(ny * nz));
-  for (std::int64_t k = 0; k < nz; ++k)
-    for (std::int64_t j = 0; j < ny; ++j) {
-      std::vector<Run>& row = rows[static_cast<std::size_t>(k * ny + j)];
-      for (std::int64_t i = 0; i < nx;) {
-        if (!inside(i, j, k)) { ++i; continue; }
-        std::int64_t e = i;
-        while (e < nx && inside(e, j, k)) ++e;
-        row.push_back({static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
-        i = e;
-      }
+  auto scan = [&](std::int64_t r, auto&& emit) {
+    const std::int64_t j = r % ny, k = r / ny;
+    for (std::int64_t i = 0; i < nx;) {
+      if (!inside(i, j, k)) { ++i; continue; }
+      std::int64_t e = i;
+      while (e < nx && inside(e, j, k)) ++e;
+      emit(Run{static_cast<std::int32_t>(i), static_cast<std::int32_t>(e)});
+      i = e;
     }
-  return VoxelSet::from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(rows));
+  };
+  const std::int64_t rows = ny * nz;
+  std::vector<std::int64_t> row_offset(static_cast<std::size_t>(rows) + 1, 0);
+  for (std::int64_t r = 0; r < rows; ++r) {
+    row_offset[static_cast<std::size_t>(r) + 1] = row_offset[static_cast<std::size_t>(r)];
+    scan(r, [&](const Run&) { ++row_offset[static_cast<std::size_t>(r) + 1]; });
+  }
+  std::vector<Run> runs(static_cast<std::size_t>(row_offset.back()));
+  std::size_t at = 0;
+  for (std::int64_t r = 0; r < rows; ++r) scan(r, [&](const Run& run) { runs[at++] = run; });
+  return VoxelSet::from_compressed_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(row_offset),
+                                        std::move(runs));
 }
 
 /// The integer label a value stands for: the value itself, or the nearest integer when the value

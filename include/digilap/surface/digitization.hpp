@@ -36,6 +36,12 @@ public:
   /// runs are normalized). Throws digilap::Error for indices out of range.
   static VoxelSet from_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
                             std::vector<std::vector<Run>> rows);
+  /// From rows already in compressed form, moved in without a copy: row r = (k - k0) nj + (j - j0)
+  /// holds runs[row_offset[r], row_offset[r + 1]), sorted, disjoint and non-empty (checked).
+  /// Memory: 8 bytes per row and per run, so at most 16 bytes per voxel of the grid whatever its
+  /// shape (the volume readers build this directly). Throws digilap::Error for malformed rows.
+  static VoxelSet from_compressed_rows(double h, std::int32_t j0, std::int32_t k0, std::int32_t nj, std::int32_t nk,
+                                       std::vector<std::int64_t> row_offset, std::vector<Run> runs);
   /// From a dense mask read in place: voxel (i, j, k), 0 <= i < nx, 0 <= j < ny, 0 <= k < nz, is
   /// in the set when the byte at data + i stride_i + j stride_j + k stride_k is not 0 (strides
   /// in bytes, of any order or sign: C or Fortran arrays, views, NumPy's strides as they are).
