@@ -2,6 +2,7 @@
 
 #include "digilap/error.hpp"
 #include "components.hpp"
+#include "core/conjugate_gradients.hpp"
 #include "core/massless.hpp"
 #include "eigen_checks.hpp"
 
@@ -12,6 +13,7 @@
 namespace digilap {
 
 namespace {
+constexpr double kCgTolerance = 1e-12;  // relative residual of each step: far below the scheme's error
 void check_step(double dt) { require_positive("HeatFlow: the time step dt", dt); }
 }  // namespace
 
@@ -77,11 +79,9 @@ void HeatFlow::factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, Tim
     throw Error("HeatFlow: the factorization of M - theta dt A failed (A must be negative semidefinite and M >= 0)");
 }
 
-// Preconditioned conjugate gradients, written here rather than with Eigen's ConjugateGradient
-// for two reasons: its product with a row-major matrix runs on Eigen's threads whatever the
-// caller's team, and the step's operator must give the same bits for any thread count (rows in
-// parallel, each summed in order; the dot products serial); and it starts from the previous
-// state, which is within dt of the answer.
+// Each step by conjugate gradients (lib/core/conjugate_gradients.hpp) from the previous state,
+// which is within dt of the answer. The product's rows run in parallel, each summed in order:
+// the same bits for any thread count.
 Eigen::VectorXd HeatFlow::solve(const Eigen::VectorXd& b, const Eigen::VectorXd& guess) const {
   const Eigen::Index n = b.size();
   const int* outer = A_.outerIndexPtr();
@@ -98,31 +98,13 @@ Eigen::VectorXd HeatFlow::solve(const Eigen::VectorXd& b, const Eigen::VectorXd&
       y[i] = lhs_diagonal_[i] * x[i] - c * sum;
     }
   };
-  Eigen::VectorXd x = guess, r(n), z(n), p(n), q(n);
-  apply(x, q);
-  r = b - q;
-  const double stop = 1e-12 * b.norm();
-  z = inverse_diagonal_.cwiseProduct(r);
-  p = z;
-  double rz = r.dot(z);
-  int k = 0;
+  Eigen::VectorXd x = guess;
   // CG needs about sqrt(cond) iterations, cond(M - theta dt A) <= 1 + 2 theta dt max(-A_ii / m_i):
   // a few for dt near t; the limit only stops a hopeless case.
-  const int limit = 10000;
-  while (r.norm() > stop && k < limit) {
-    apply(p, q);
-    const double alpha = rz / p.dot(q);
-    x += alpha * p;
-    r -= alpha * q;
-    z = inverse_diagonal_.cwiseProduct(r);
-    const double rz_next = r.dot(z);
-    p = z + (rz_next / rz) * p;
-    rz = rz_next;
-    ++k;
-  }
-  last_iterations_ = k;
-  if (!(r.norm() <= stop))
-    throw Error("HeatFlow: conjugate gradients did not reach 1e-12 in " + std::to_string(limit) +
+  constexpr int kLimit = 10000;
+  last_iterations_ = detail::conjugate_gradients(apply, inverse_diagonal_, b, x, kCgTolerance, kLimit);
+  if (last_iterations_ < 0)
+    throw Error("HeatFlow: conjugate gradients did not reach 1e-12 in " + std::to_string(kLimit) +
                 " iterations (dt is very large against the heat time t); use a smaller dt or HeatSolver::Factorization");
   return x;
 }

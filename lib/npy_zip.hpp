@@ -2,8 +2,8 @@
 // numpy.load and scipy.sparse.load_npz read. Written here because no Debian package writes
 // .npz from C++; the format is small: a .npy is a magic, a Python-dict header padded to 64
 // bytes and the raw little-endian array; a stored zip is a local header before each member
-// and a central directory after them (CRC-32 by zlib). Members of 4 GiB or more (which need
-// ZIP64) are refused.
+// and a central directory after them (CRC-32 by zlib), in ZIP64 form where a member or an
+// offset reaches 4 GiB.
 #pragma once
 
 #include <cstddef>

@@ -5,6 +5,8 @@
 // the one-call laplacian() and the docstrings' conventions.
 #include "digilap/digilap.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/matrix_free.hpp"
+#include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/ply.hpp"
 #include "digilap/surface/smoothing.hpp"
 #include "digilap/surface/volume.hpp"
@@ -47,6 +49,18 @@ struct type_caster<FilePath> {
 namespace {
 
 using Release = py::call_guard<py::gil_scoped_release>;
+
+// A x (stiffness) or L x on the matrix-free surface operator, x a vector or a block, the size
+// checked with a ValueError and the GIL released for the product.
+Eigen::MatrixXd surface_product(const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x, bool stiffness) {
+  if (x.rows() != op.rows())
+    throw py::value_error("x: expected " + std::to_string(op.rows()) + " rows, got " + std::to_string(x.rows()));
+  py::gil_scoped_release release;
+  Eigen::MatrixXd y;
+  if (stiffness) op.apply_stiffness(x, y);
+  else op.apply_laplacian(x, y);
+  return y;
+}
 
 // A NumPy view on `count` elements at `data`, kept alive by `owner` (a Python object holding
 // the C++ memory). A 1-D view on a 1-element ndarray base would make SciPy copy ("a view of a
@@ -531,6 +545,50 @@ PYBIND11_MODULE(_digilap, m) {
   s.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
         py::arg("op"), py::arg("count") = 10, Release(),
         "The count smallest eigenpairs of (-A, M) on the support of mu, with Laplace-Beltrami estimates (digilap.smallest_eigenpairs).");
+  // The operator without its matrices (issue 23): products, spectrum, heat flow and smoothing in
+  // O(N) memory; digilap.surface adds as_linear_operator() for SciPy.
+  py::class_<surface::MatrixFreeSurfaceOperator, std::shared_ptr<surface::MatrixFreeSurfaceOperator>>(
+      s, "MatrixFreeSurfaceOperator",
+      "The surface operator heat_laplacian() would assemble, applied without storing L or A: memory O(N).")
+      .def(py::init([](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
+                       double length_scale, bool per_surface_time, bool couple_surfaces) {
+             HeatLaplacianOptions o;
+             o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale;
+             o.per_contour_time = per_surface_time, o.couple_surfaces = couple_surfaces;
+             py::gil_scoped_release release;
+             return std::make_shared<surface::MatrixFreeSurfaceOperator>(f, mu, o);
+           }), py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
+           py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0, py::arg("per_surface_time") = true,
+           py::arg("couple_surfaces") = false)
+      .def("rows", &surface::MatrixFreeSurfaceOperator::rows)
+      .def_property_readonly("t", &surface::MatrixFreeSurfaceOperator::t)
+      .def_property_readonly("cut", &surface::MatrixFreeSurfaceOperator::cut)
+      .def_property_readonly("mass", &surface::MatrixFreeSurfaceOperator::mass)
+      .def_property_readonly("positions", &surface::MatrixFreeSurfaceOperator::positions)
+      .def_property_readonly("row_offset", &surface::MatrixFreeSurfaceOperator::row_offset)
+      .def_property_readonly("part_t", &surface::MatrixFreeSurfaceOperator::part_t)
+      .def("bytes", &surface::MatrixFreeSurfaceOperator::bytes, "Bytes the operator holds (O(N)).")
+      .def("matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) { return surface_product(op, x, false); },
+           py::arg("x"), "L x for a vector or an N x b block (one neighbour search for the whole block).")
+      .def("stiffness_matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) { return surface_product(op, x, true); },
+           py::arg("x"), "A x = M L x (symmetric) for a vector or an N x b block.")
+      .def("smallest_eigenpairs", [](const surface::MatrixFreeSurfaceOperator& op, int count) {
+        return surface::smallest_eigenpairs(op, {count});
+      }, py::arg("count") = 10, Release(), "The count smallest eigenpairs (LOBPCG preconditioned by the surfel graph Laplacian).");
+  py::class_<surface::MatrixFreeHeatFlow>(s, "MatrixFreeHeatFlow",
+                                          "Heat flow on a MatrixFreeSurfaceOperator, each step by conjugate gradients on products.")
+      .def(py::init([](const surface::MatrixFreeSurfaceOperator& op, double dt, TimeScheme scheme) {
+             py::gil_scoped_release release;
+             return std::make_unique<surface::MatrixFreeHeatFlow>(op, dt, scheme);
+           }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson,
+           py::keep_alive<1, 2>())  // the flow keeps a reference to the operator
+      .def("step", &surface::MatrixFreeHeatFlow::step, py::arg("u"), Release())
+      .def("advance", &surface::MatrixFreeHeatFlow::advance, py::arg("u0"), py::arg("steps"), Release())
+      .def_property_readonly("last_iterations", &surface::MatrixFreeHeatFlow::last_iterations);
+  s.def("smooth", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& f, double tau, int steps) {
+        return surface::smooth(op, f, tau, steps);
+      }, py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
+      "Columns of f diffused for time tau (implicit Euler) on the matrix-free operator.");
   s.def("smooth_positions", [](const surface::SurfaceOperator& op, double tau, int steps, bool preserve_size) {
         return surface::smooth_positions(op, {tau, steps, preserve_size});
       }, py::arg("op"), py::arg("tau") = surface::SurfaceSmoothingOptions{}.tau,

@@ -9,6 +9,7 @@
 #include "digilap/surface/smoothing.hpp"
 #include "digilap/surface/volume.hpp"
 #include "error_of.hpp"
+#include "on_threads.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -303,13 +304,7 @@ TEST(Surface, HeatFlowOnSurfacesSolvesByConjugateGradients) {
   by_cg.step(u0);
   EXPECT_GT(by_cg.last_iterations(), 0);
   EXPECT_LT(by_cg.last_iterations(), 40);
-  const int threads = omp_get_max_threads();
-  omp_set_num_threads(1);
-  const Eigen::VectorXd one = by_cg.advance(u0, 5);
-  omp_set_num_threads(2);
-  const Eigen::VectorXd two = by_cg.advance(u0, 5);
-  omp_set_num_threads(threads);
-  EXPECT_EQ(one, two);
+  EXPECT_EQ(on_threads(1, [&] { return by_cg.advance(u0, 5); }), on_threads(2, [&] { return by_cg.advance(u0, 5); }));
 }
 
 // Fairing of a digital sphere whose surfel centres carry noise: the 3D positions through the

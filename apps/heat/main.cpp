@@ -5,6 +5,7 @@
 #include "../common/svg_surface.hpp"
 
 #include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/ply.hpp"
 #include "../common/svg_contour.hpp"
 
@@ -12,6 +13,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 
 using namespace digilap;
 
@@ -27,11 +30,12 @@ struct Snapshots {
   std::vector<Eigen::VectorXd> values;
   std::vector<double> times;
 };
-Snapshots run_flow(const HeatFlow& flow, const Eigen::VectorXd& u0, double tau, int steps, int snapshots, app::Progress& progress) {
+using Step = std::function<Eigen::VectorXd(const Eigen::VectorXd&)>;
+Snapshots run_flow(const Step& step, const Eigen::VectorXd& u0, double tau, int steps, int snapshots, app::Progress& progress) {
   Snapshots out{{u0}, {0.0}};
   Eigen::VectorXd u = u0;
   for (int s = 1; s <= steps; ++s) {
-    u = flow.step(u);
+    u = step(u);
     const int k = static_cast<int>(out.times.size());
     if (s == static_cast<int>(std::lround(static_cast<double>(k) * steps / (snapshots - 1)))) {
       out.values.push_back(u);
@@ -53,40 +57,55 @@ HeatSolver solver_named(const std::string& name) {
 const char* solver_name(HeatSolver s) { return s == HeatSolver::ConjugateGradient ? "conjugate gradients" : "factorization"; }
 
 int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOptions& op_options, const std::string& initial,
-                 double tau, int steps, int snapshots, bool euler, HeatSolver solver, const std::string& out_dir,
+                 double tau, int steps, int snapshots, bool euler, HeatSolver solver, bool matrix_free, const std::string& out_dir,
                  app::Progress& progress) {
   const app::SurfaceFrontEnd fe = app::run_surface_front_end(fe_options, progress);
-  progress.start("operator");
-  const surface::SurfaceOperator op = surface::heat_laplacian(fe.surfels, fe.measures, op_options);
+  // The assembled operator, or (--matrix-free) products on the fly: memory O(N), each step by
+  // conjugate gradients on products (surface/matrix_free_heat_flow.hpp).
+  std::unique_ptr<surface::SurfaceOperator> assembled;
+  std::unique_ptr<surface::MatrixFreeSurfaceOperator> free;
+  progress.start(matrix_free ? "matrix-free operator" : "operator");
+  if (matrix_free) free = std::make_unique<surface::MatrixFreeSurfaceOperator>(fe.surfels, fe.measures, op_options);
+  else assembled.reset(new surface::SurfaceOperator(surface::heat_laplacian(fe.surfels, fe.measures, op_options)));  // elided: no copy of L and A
   progress.finish();
-  const Eigen::Index n = op.rows();
-  const Eigen::RowVector3d centroid = (op.mass.transpose() * op.positions) / op.mass.sum();
-  const double sigma = std::sqrt(op.mass.sum()) / 10;
+  const Eigen::VectorXd& mass = matrix_free ? free->mass() : assembled->mass;
+  const Eigen::MatrixX3d& positions = matrix_free ? free->positions() : assembled->positions;
+  const double t = matrix_free ? free->t() : assembled->t;
+  const Eigen::Index n = mass.size();
+  const Eigen::RowVector3d centroid = (mass.transpose() * positions) / mass.sum();
+  const double sigma = std::sqrt(mass.sum()) / 10;
   Eigen::VectorXd u0(n), mode(n);
   for (Eigen::Index i = 0; i < n; ++i) {
-    mode[i] = op.positions(i, 0) - centroid.x();
-    const double d2 = (op.positions.row(i) - op.positions.row(0)).squaredNorm();
+    mode[i] = positions(i, 0) - centroid.x();
+    const double d2 = (positions.row(i) - positions.row(0)).squaredNorm();
     u0[i] = initial == "cosine" ? mode[i] : (initial == "bump" ? std::exp(-d2 / (2 * sigma * sigma)) : 0.0);
   }
   if (initial == "dirac") {
-    if (!(op.mass[0] > 0)) throw Error("the first surfel has zero area: choose another initial function");
-    u0[0] = 1 / op.mass[0];
+    if (!(mass[0] > 0)) throw Error("the first surfel has zero area: choose another initial function");
+    u0[0] = 1 / mass[0];
   }
+  const TimeScheme time_scheme = euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson;
+  if (matrix_free && solver == HeatSolver::Factorization)
+    throw Error("--solver factorization needs the assembled operator: --matrix-free solves each step by conjugate gradients");
   progress.start(solver == HeatSolver::Factorization ? "factorize" : "heat flow setup");
-  const HeatFlow flow(op, tau / steps, euler ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson, solver);
+  std::unique_ptr<HeatFlow> flow;
+  std::unique_ptr<surface::MatrixFreeHeatFlow> free_flow;
+  if (matrix_free) free_flow = std::make_unique<surface::MatrixFreeHeatFlow>(*free, tau / steps, time_scheme);
+  else flow = std::make_unique<HeatFlow>(*assembled, tau / steps, time_scheme, solver);
   progress.finish();
-  const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
+  const auto [snaps, times] = run_flow([&](const Eigen::VectorXd& u) { return matrix_free ? free_flow->step(u) : flow->step(u); }, u0, tau,
+                                       steps, snapshots, progress);
   const bool sphere = fe.shape && fe.shape->name() == "sphere";
-  const double first = sphere ? 2 / (fe.shape->area() / (4 * kPi)) : 0, a0 = modal_amplitude(u0, mode, op.mass);
+  const double first = sphere ? 2 / (fe.shape->area() / (4 * kPi)) : 0, a0 = modal_amplitude(u0, mode, mass);
   std::printf("# %s, h = %g, N = %ld surfels, l = %.4g, R = %.4g, t = %.4g, scheme %s, dt = %g, %s\n", fe.name.c_str(), fe.voxels.h(),
-              static_cast<long>(n), fe.measures.length_scale, fe.measures.normal_radius, op.t, euler ? "euler" : "cn", tau / steps,
-              solver_name(flow.solver()));
+              static_cast<long>(n), fe.measures.length_scale, fe.measures.normal_radius, t, euler ? "euler" : "cn", tau / steps,
+              matrix_free ? "matrix-free, conjugate gradients" : solver_name(flow->solver()));
   std::printf("| tau | amplitude along x a(tau)/a(0) | %s | total heat |\n|---|---|---|---|\n",
               sphere ? "exp(-2 tau / r^2) (sphere: x is the first mode)" : "(no closed form off the sphere)");
   for (std::size_t k = 0; k < snaps.size(); ++k) {
-    const double ratio = a0 != 0 ? modal_amplitude(snaps[k], mode, op.mass) / a0 : 0;
-    if (sphere) std::printf("| %.4g | %.8f | %.8f | %.10g |\n", times[k], ratio, std::exp(-first * times[k]), op.mass.dot(snaps[k]));
-    else std::printf("| %.4g | %.8f | - | %.10g |\n", times[k], ratio, op.mass.dot(snaps[k]));
+    const double ratio = a0 != 0 ? modal_amplitude(snaps[k], mode, mass) / a0 : 0;
+    if (sphere) std::printf("| %.4g | %.8f | %.8f | %.10g |\n", times[k], ratio, std::exp(-first * times[k]), mass.dot(snaps[k]));
+    else std::printf("| %.4g | %.8f | - | %.10g |\n", times[k], ratio, mass.dot(snaps[k]));
   }
   std::filesystem::create_directories(out_dir);
   std::ofstream csv(out_dir + "/heat.csv");
@@ -96,7 +115,7 @@ int surface_heat(const app::FrontEndOptions& fe_options, const HeatLaplacianOpti
   csv << '\n';
   csv.precision(12);
   for (Eigen::Index i = 0; i < n; ++i) {
-    csv << i << ',' << op.positions(i, 0) << ',' << op.positions(i, 1) << ',' << op.positions(i, 2);
+    csv << i << ',' << positions(i, 0) << ',' << positions(i, 1) << ',' << positions(i, 2);
     for (const auto& snap : snaps) csv << ',' << snap[i];
     csv << '\n';
   }
@@ -124,7 +143,7 @@ int main(int argc, char** argv) {
   std::string initial = "cosine", scheme = "cn", solver = "auto", out_dir = "out/heat";
   double tau = 0.5;
   int steps = 100, snapshots = 5;
-  bool quiet = false;
+  bool quiet = false, matrix_free = false;
   app::add_front_end_options(app, fe_options);
   app::add_operator_options(app, op_options);
   app.add_option("--initial", initial, "Initial temperature: cosine (cos(2 pi s / P)), bump (Gaussian of width P/20), dirac")
@@ -140,6 +159,8 @@ int main(int argc, char** argv) {
                  "stays O(N) where the factors would fill in), factorization, or cg")
       ->check(CLI::IsMember({"auto", "factorization", "cg"}))
       ->capture_default_str();
+  app.add_flag("--matrix-free", matrix_free,
+               "Surfaces: never store L; each step by conjugate gradients on products computed on the fly (memory O(N))");
   app.add_option("--snapshots", snapshots, "Snapshots written and drawn (at equal times, tau = 0 included)")
       ->capture_default_str();
   app::add_output_options(app, out_dir, quiet);
@@ -152,8 +173,9 @@ int main(int argc, char** argv) {
     if (snapshots < 2 || snapshots > steps + 1) throw Error("--snapshots must be in [2, steps + 1]");
     app::Progress progress(quiet);
     if (app::is_surface_input(fe_options))
-      return surface_heat(fe_options, op_options, initial, tau, steps, snapshots, scheme == "euler", solver_named(solver), out_dir,
-                          progress);
+      return surface_heat(fe_options, op_options, initial, tau, steps, snapshots, scheme == "euler", solver_named(solver), matrix_free,
+                          out_dir, progress);
+    if (matrix_free) throw Error("digilap-heat --matrix-free is for surfaces and volumes (contours: digilap-spectrum --matrix-free)");
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     const ContourOperator op = app::build_operator(fe, op_options, progress);
 
@@ -176,7 +198,7 @@ int main(int argc, char** argv) {
     const HeatFlow flow(op, tau / steps, scheme == "euler" ? TimeScheme::ImplicitEuler : TimeScheme::CrankNicolson,
                         solver_named(solver));
     progress.finish();
-    const auto [snaps, times] = run_flow(flow, u0, tau, steps, snapshots, progress);
+    const auto [snaps, times] = run_flow([&](const Eigen::VectorXd& u) { return flow.step(u); }, u0, tau, steps, snapshots, progress);
 
     const double omega2 = std::pow(2 * kPi / P, 2), a0 = modal_amplitude(u0, mode, op.mass);
     std::printf("# %s, h = %g, N = %ld, l = %.4g, R = %.4g, t = %.4g%s, P (estimated) = %.8g, scheme %s, dt = %g\n",

@@ -15,7 +15,8 @@ void save_matrix_market(const SparseMatrix& matrix, const std::string& path);
 
 /// Writes a sparse matrix as scipy.sparse.save_npz does for a csr_matrix (an uncompressed
 /// .npz of data, indices, indptr, format and shape): scipy.sparse.load_npz(path) reads it,
-/// bit for bit. Members must stay below 4 GiB (no ZIP64); digilap::Error otherwise.
+/// bit for bit. Members or offsets of 4 GiB and more are written in ZIP64 form, which NumPy and
+/// SciPy read.
 void save_npz(const SparseMatrix& matrix, const std::string& path);
 
 /// The element table as an .npz: contour, index (int64), positions (N x 2), mu, s (float64).

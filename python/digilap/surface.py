@@ -23,6 +23,19 @@ from_mask, heat_laplacian, ii_normals, measures, VoxelSet = (_cpp.from_mask, _cp
 __all__ = [name for name in dir() if not name.startswith("_")] + ["laplacian", "shape_dna", "read_label_names"]
 
 
+def _as_linear_operator(self):
+    """L as a ``scipy.sparse.linalg.LinearOperator`` (matvec and matmat, for eigsh, cg,
+    expm_multiply), computed on the fly: nothing of size N x neighbours is stored."""
+    from scipy.sparse import linalg as _linalg
+
+    n = self.rows()
+    return _linalg.LinearOperator((n, n), matvec=lambda x: self.matvec(_np.asarray(x, float).reshape(n, -1))[:, 0],
+                                  matmat=lambda x: self.matvec(_np.asarray(x, float)), dtype=_np.float64)
+
+
+MatrixFreeSurfaceOperator.as_linear_operator = _as_linear_operator
+
+
 def read_label_names(path):
     """``{index: name}`` from a label table: ``index name ...`` lines, as FSL's atlases ship them,
     or FreeSurfer's colour LUT (``index name R G B A``); '#' comments and other lines skipped."""

@@ -154,3 +154,53 @@ def test_python_errors_name_the_problem(tmp_path):
     check = "import digilap; print(hasattr(digilap.surface, 'shape_dna') and hasattr(digilap.surface, 'laplacian'))"
     out = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "True"
+
+
+def test_matrix_free_surface_operator_from_scipy():
+    """The surface operator without its matrices (issue 23): L x and A x equal the assembled
+    products (1e-12 of |L| |x|, the same terms in another order), as_linear_operator() drives
+    SciPy's eigsh to the assembled spectrum, and heat flow and smoothing equal the assembled
+    ones; the operator holds far fewer bytes than L and A."""
+    from scipy.sparse import linalg
+
+    voxels = surface.from_mask(atlas_array(), h=2.0, label=5)
+    surfels = surface.filter_surfels(voxels, surface.extract_surfels(voxels), largest_only=True)
+    mu = surface.measures(surfels, surface.ii_normals(voxels, surfels))
+    op = surface.heat_laplacian(surfels, mu)
+    free = surface.MatrixFreeSurfaceOperator(surfels, mu)
+    n = free.rows()
+    assert n == op.L.shape[0] and free.t == op.t
+    x = np.sin(0.37 * np.arange(2 * n)).reshape(n, 2)
+    scale = abs(op.L).sum(axis=1).max() * abs(x).max()
+    assert abs(free.matvec(x) - op.L @ x).max() < 1e-12 * scale
+    assert abs(free.stiffness_matvec(x) - op.A @ x).max() < 1e-12 * abs(op.A).sum(axis=1).max() * abs(x).max()
+    assert abs(free.matvec(x[:, 0])[:, 0] - op.L @ x[:, 0]).max() < 1e-12 * scale
+    assert free.bytes() < 0.05 * (op.L.data.nbytes + op.A.data.nbytes)
+    lin = free.as_linear_operator()
+    assert lin.shape == (n, n)
+    assert abs(lin @ x[:, 0] - op.L @ x[:, 0]).max() < 1e-12 * scale
+    assert abs(lin.matmat(x) - op.L @ x).max() < 1e-12 * scale
+    # ARPACK on products only: the largest eigenvalues of -L (not symmetric: Arnoldi) and of -A
+    # (symmetric: Lanczos) against the assembled matrices' (1e-8 relative: both converge to 1e-12).
+    neg = linalg.LinearOperator((n, n), matvec=lambda v: -(lin @ v), dtype=float)
+    top = np.sort(linalg.eigs(neg, k=4, which="LR", tol=1e-12, return_eigenvectors=False).real)
+    top_assembled = np.sort(linalg.eigs(-op.L, k=4, which="LR", tol=1e-12, return_eigenvectors=False).real)
+    assert np.allclose(top, top_assembled, rtol=1e-8)
+    stiff = linalg.LinearOperator((n, n), matvec=lambda v: -free.stiffness_matvec(v)[:, 0], dtype=float)
+    top = np.sort(linalg.eigsh(stiff, k=4, which="LA", tol=1e-12, return_eigenvectors=False))
+    assert np.allclose(top, np.sort(linalg.eigsh(-op.A, k=4, which="LA", tol=1e-12, return_eigenvectors=False)), rtol=1e-8)
+    # The smallest eigenpairs from the preconditioned solver equal the assembled ones (1e-8 relative).
+    s_free, s_assembled = free.smallest_eigenpairs(6), digilap.smallest_eigenpairs(op, 6)
+    assert np.allclose(s_free.eigenvalues[1:], s_assembled.eigenvalues[1:], rtol=1e-8)
+    u0 = np.exp(-0.05 * ((free.positions - free.positions[0]) ** 2).sum(axis=1))
+    flow = surface.MatrixFreeHeatFlow(free, op.t)
+    u, reference = flow.advance(u0, 5), digilap.HeatFlow(op, op.t).advance(u0, 5)
+    assert abs(u - reference).max() < 1e-9 * abs(reference).max()
+    assert flow.last_iterations > 0
+    f = x.copy()
+    assert abs(surface.smooth(free, f, 2 * op.t, 2) - np.column_stack(
+        [digilap.smooth_function(op, f[:, k], 2 * op.t, 2) for k in range(2)])).max() < 1e-9 * abs(f).max()
+    with pytest.raises(ValueError, match="expected"):
+        free.matvec(np.zeros(3))
+    with pytest.raises(digilap.Error, match="dt must be > 0"):
+        surface.MatrixFreeHeatFlow(free, 0.0)

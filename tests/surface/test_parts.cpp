@@ -7,8 +7,9 @@
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/length_scale.hpp"
 
+#include "../on_threads.hpp"
+
 #include <gtest/gtest.h>
-#include <omp.h>
 
 #include <array>
 #include <cmath>
@@ -159,14 +160,10 @@ TEST(SurfaceParts, SpectraOfSeveralPartsAreBitwiseIndependentOfTheThreads) {
   ASSERT_EQ(p.op.parts(), 2u);
   SpectrumOptions o;
   o.count = 10;
-  const int threads = omp_get_max_threads();
-  omp_set_num_threads(1);
-  const Spectrum one = smallest_eigenpairs(p.op, o);
-  const std::vector<Spectrum> one_per_part = smallest_eigenpairs_per_part(p.op, o);
-  omp_set_num_threads(2);
-  const Spectrum two = smallest_eigenpairs(p.op, o);
-  const std::vector<Spectrum> two_per_part = smallest_eigenpairs_per_part(p.op, o);
-  omp_set_num_threads(threads);
+  const Spectrum one = on_threads(1, [&] { return smallest_eigenpairs(p.op, o); });
+  const Spectrum two = on_threads(2, [&] { return smallest_eigenpairs(p.op, o); });
+  const std::vector<Spectrum> one_per_part = on_threads(1, [&] { return smallest_eigenpairs_per_part(p.op, o); });
+  const std::vector<Spectrum> two_per_part = on_threads(2, [&] { return smallest_eigenpairs_per_part(p.op, o); });
   EXPECT_EQ(one.eigenvalues, two.eigenvalues);
   EXPECT_EQ(one.eigenvectors, two.eigenvectors);
   ASSERT_EQ(one_per_part.size(), 2u);
