@@ -1,4 +1,5 @@
 #include "digilap/digitization.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "runs.hpp"
@@ -154,7 +155,7 @@ DigitalSet digitize(const Shape& shape, double h) {
   // 1. Split the curve into pieces on which y(theta) is monotone, at the roots of y'(theta).
   const auto& th = shape.sample_parameters();
   const std::size_t n = th.size();
-  const double two_pi = 2.0 * 3.14159265358979323846;
+  const double two_pi = 2.0 * kPi;
   auto theta_at = [&](std::size_t k) { return k < n ? th[k] : th[k - n] + two_pi; };
   const double theta_end = theta_at(0) + two_pi;
   // The curve closes at theta = +-pi: evaluate the end as the start, so that both pieces that

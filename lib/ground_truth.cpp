@@ -1,4 +1,5 @@
 #include "digilap/ground_truth.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 
@@ -7,7 +8,6 @@
 namespace digilap {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 }
 
 Eigen::Vector2d curvature_vector(const Shape& shape, double theta) {

@@ -1,4 +1,5 @@
 #include "digilap/heat_laplacian.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "elements.hpp"
@@ -23,7 +24,6 @@ using detail::finish_row;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 
 void check_positive(const char* what, double v) { require_positive(std::string("heat_laplacian: ") + what, v); }
 

@@ -1,4 +1,5 @@
 #include "digilap/length_scale.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "disk_moments.hpp"
@@ -10,7 +11,6 @@
 namespace digilap {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kFloorPixels = 4.0;
 constexpr std::size_t kMaxSamples = 20000;
 constexpr int kRounds = 3;

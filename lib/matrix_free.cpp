@@ -1,4 +1,5 @@
 #include "digilap/matrix_free.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "eigen_checks.hpp"
@@ -25,7 +26,6 @@
 namespace digilap {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 // Smallest order p whose Hermite truncation error, relative to the sources' total weight,
 // is below epsilon. With sources within rho * delta of the box centre, Cramer's inequality

@@ -1,4 +1,5 @@
 #include "digilap/shapes.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "shape_parameters.hpp"
@@ -16,7 +17,6 @@ namespace digilap {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // Samples of the curve for the closest-point search and for the digitization. 2^15 samples keep
 // the sample spacing (about 2e-3 on the reference shapes) far below the smallest radius of
 // curvature (0.04 on the sharpest accflower), so the nearest sample lies in the right basin.

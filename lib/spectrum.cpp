@@ -1,4 +1,5 @@
 #include "digilap/spectrum.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "components.hpp"
@@ -21,7 +22,6 @@ namespace digilap {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
 
 // Eigen's SimplicialLDLT with the size of its factor, known from the symbolic analysis alone.

@@ -3,6 +3,7 @@
 // the C++ operator's memory (each view keeps the operator alive), never copied. The GIL is
 // released around every call that computes. The pure-Python layer (digilap/__init__.py) adds
 // the one-call laplacian() and the docstrings' conventions.
+#include "digilap/core/constants.hpp"
 #include "digilap/digilap.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/matrix_free.hpp"
@@ -172,7 +173,7 @@ std::shared_ptr<PolarCurve> polar_curve(const py::function& r, const py::functio
     curve = std::make_shared<PolarCurve>(python_function(r, error, "r"), python_function(dr, error, "dr"),
                                          python_function(d2r, error, "d2r"), name);
     // The construction samples r and r' only: try r'' too (the curvature uses it).
-    for (int k = 0; k < 64; ++k) curve->curvature(-3.14159265358979323846 + 2 * 3.14159265358979323846 * k / 64);
+    for (int k = 0; k < 64; ++k) curve->curvature(-kPi + 2 * kPi * k / 64);
   } catch (const Error&) {
     if (error->empty()) throw;
   }

@@ -1,4 +1,5 @@
 #include "app_common.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/surface/length_scale.hpp"
 #include "digilap/surface/volume.hpp"
@@ -145,7 +146,7 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
     if (!std::isfinite(o.rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
     if (o.rotate_degrees != 0 || !o.centre.empty())
       fe.shape->set_pose(o.centre.empty() ? Eigen::Vector2d::Zero() : Eigen::Vector2d(o.centre[0], o.centre[1]),
-                         o.rotate_degrees * 3.14159265358979323846 / 180);
+                         o.rotate_degrees * kPi / 180);
     fe.name = fe.shape->name();
     fe.exact_length = fe.shape->length();
     const double h = o.h == 0 ? 0.01 : o.h;
@@ -205,7 +206,7 @@ SurfaceFrontEnd run_surface_front_end(const FrontEndOptions& o, Progress& progre
     shape = surface::make_surface(o.shape);
     if (o.rotate_degrees != 0 || !o.centre.empty())
       shape->set_pose(o.centre.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(o.centre[0], o.centre[1], 0),
-                      Eigen::AngleAxisd(o.rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+                      Eigen::AngleAxisd(o.rotate_degrees * kPi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
     voxels = surface::digitize(*shape, o.h > 0 ? o.h : 0.05);
     name = shape->name();
   } else {

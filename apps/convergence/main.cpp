@@ -1,5 +1,6 @@
 // digilap-convergence: the paper's Figure 5 as one command. Sweeps h, compares operators
 // against the exact Laplace-Beltrami operator, prints a table, writes CSV and an SVG figure.
+#include "digilap/core/constants.hpp"
 #include "../common/app_common.hpp"
 #include "../common/svg_plot.hpp"
 
@@ -25,7 +26,7 @@ int surface_convergence(const std::string& spec, const std::string& function, st
   if (function != "x2" && function != "xy") throw Error("on surfaces the test functions are x2 and xy, got '" + function + "'");
   auto shape = surface::make_surface(spec);
   const Eigen::Vector3d c = centre.empty() ? Eigen::Vector3d(0.0123, -0.0371, 0.0217) : Eigen::Vector3d(centre[0], centre[1], 0);
-  shape->set_pose(c, Eigen::AngleAxisd(rotate_degrees * 3.14159265358979323846 / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+  shape->set_pose(c, Eigen::AngleAxisd(rotate_degrees * kPi / 180, Eigen::Vector3d::UnitZ()).toRotationMatrix());
   const double kR = app::ii_k_R(k_R, 2);
   struct Row {
     double h, t, l, error;
@@ -169,7 +170,7 @@ int main(int argc, char** argv) {
     if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
     if (rotate_degrees != 0 || !centre.empty())
       shape->set_pose(centre.empty() ? Eigen::Vector2d::Zero() : Eigen::Vector2d(centre[0], centre[1]),
-                      rotate_degrees * 3.14159265358979323846 / 180);
+                      rotate_degrees * kPi / 180);
     const TestFunction f = make_test_function(function);
     ConvergenceOptions o;
     o.steps = steps;

@@ -2,6 +2,7 @@
 // Writes CSV snapshots and an SVG of the contour coloured by temperature at several times, and
 // prints the decay of the first mode against exp(-(2 pi / P)^2 tau).
 #include "../common/app_common.hpp"
+#include "digilap/core/constants.hpp"
 #include "../common/svg_surface.hpp"
 
 #include "digilap/surface/heat_laplacian.hpp"
@@ -17,10 +18,6 @@
 #include <memory>
 
 using namespace digilap;
-
-namespace {
-constexpr double kPi = 3.14159265358979323846;
-}
 
 namespace {
 

@@ -1,5 +1,6 @@
 // digilap-spectrum: the smallest eigenvalues and eigenvectors of the digital Laplace-Beltrami
 // operator, against the exact spectrum of the curve and the heat-kernel formula.
+#include "digilap/core/constants.hpp"
 #include "../common/app_common.hpp"
 #include "../common/svg_contour.hpp"
 #include "../common/svg_surface.hpp"
@@ -77,7 +78,7 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
     std::printf("# %ld surfels of zero area (II normal orthogonal to the surfel): off the support of mu, their "
                 "eigenvector entries the heat-kernel average of their neighbours\n", static_cast<long>(s.massless));
   const bool sphere = shape && shape->name() == "sphere";
-  const double r2 = sphere ? shape->area() / (4 * 3.14159265358979323846) : 0;
+  const double r2 = sphere ? shape->area() / (4 * kPi) : 0;
   std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t, their Laplace-Beltrami estimates%s\n",
               sphere ? "; exact: l (l + 1) / r^2, multiplicity 2l + 1" : "");
   std::printf("| k | lambda_k | mu_k |%s\n|---|---|---|%s\n", sphere ? " l | l(l+1)/r^2 | rel. diff |" : "", sphere ? "---|---|---|" : "");

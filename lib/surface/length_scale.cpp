@@ -1,4 +1,5 @@
 #include "digilap/surface/length_scale.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "ball_moments.hpp"
@@ -12,7 +13,6 @@
 namespace digilap::surface {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kFloorVoxels = 4.0;
 constexpr std::size_t kMaxSamples = 20000;
 constexpr int kRounds = 3;

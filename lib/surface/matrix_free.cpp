@@ -172,7 +172,7 @@ public:
     const detail::Grid grid(positions, cut);
     std::vector<Eigen::Triplet<double>> entries;
     entries.reserve(static_cast<std::size_t>(7 * n));
-    const double sigma = 1e-2 * 4 * detail::kPi / mass.sum();
+    const double sigma = 1e-2 * 4 * kPi / mass.sum();
     detail::RowBuffer found;
     for (Eigen::Index i = 0; i < n; ++i) {
       grid.gather_within(positions.row(i).transpose(), cut, found);

@@ -1,4 +1,5 @@
 #include "digilap/surface/normals.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "digilap/surface/length_scale.hpp"
@@ -14,7 +15,6 @@
 namespace digilap::surface {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 using detail::ball_moments;
 using detail::doubled_centre;
 using detail::Moments;

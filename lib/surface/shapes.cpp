@@ -1,4 +1,5 @@
 #include "digilap/surface/shapes.hpp"
+#include "digilap/core/constants.hpp"
 
 #include "digilap/error.hpp"
 #include "../shape_parameters.hpp"
@@ -14,7 +15,6 @@
 namespace digilap::surface {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 void require_finite(const Eigen::Vector3d& p, const char* what) {
   if (!p.allFinite()) throw Error(std::string(what) + ": the point is not finite");

@@ -5,6 +5,7 @@
 #pragma once
 
 #include "digilap/error.hpp"
+#include "digilap/core/constants.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <Eigen/Core>
@@ -18,7 +19,6 @@
 
 namespace digilap::surface::detail {
 
-constexpr double kPi = 3.14159265358979323846;
 
 // A row's columns and squared distances, before sorting (one per thread, reused).
 struct RowBuffer {
