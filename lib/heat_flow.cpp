@@ -25,7 +25,7 @@ HeatFlow::HeatFlow(const SparseMatrix& A, const Eigen::VectorXd& mass, double dt
       throw Error("HeatFlow: the mass of row " + std::to_string(i) +
                   " is not > 0 (an element of zero measure has no equation in (A, M)): build the flow from the operator "
                   "(HeatFlow(op, dt)), which steps such elements with their row of L");
-  factorize(A, mass, scheme, solver == HeatSolver::Auto ? HeatSolver::Factorization : solver);
+  prepare(A, mass, scheme, solver == HeatSolver::Auto ? HeatSolver::Factorization : solver);
 }
 
 HeatFlow::HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme, HeatSolver solver) : dt_(dt) {
@@ -36,14 +36,14 @@ HeatFlow::HeatFlow(const HeatOperator& op, double dt, TimeScheme scheme, HeatSol
   massless_ = op.massless_rows();
   detail::check_massless_reach_mass(op, massless_, "HeatFlow");
   if (solver == HeatSolver::Auto) solver = op.dimension >= 2 ? HeatSolver::ConjugateGradient : HeatSolver::Factorization;
-  factorize(op.A, op.mass, scheme, solver);
+  prepare(op.A, op.mass, scheme, solver);
   if (!massless_.empty()) {
     L_massless_.resize(static_cast<Eigen::Index>(massless_.size()), op.rows());
     for (std::size_t k = 0; k < massless_.size(); ++k) L_massless_.row(static_cast<Eigen::Index>(k)) = op.L.row(massless_[k]);
   }
 }
 
-void HeatFlow::factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme, HeatSolver solver) {
+void HeatFlow::prepare(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme, HeatSolver solver) {
   if (A.rows() != mass.size() || A.cols() != mass.size())
     throw Error("HeatFlow: A and the masses have different sizes");
   theta_ = scheme == TimeScheme::ImplicitEuler ? 1.0 : 0.5;

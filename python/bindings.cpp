@@ -388,11 +388,18 @@ PYBIND11_MODULE(_digilap, m) {
       .def("smallest_eigenpairs", [](const MatrixFreeLaplacian& op, int count) { return smallest_eigenpairs(op, {count}); },
            py::arg("count") = 10, Release(), "The count smallest eigenpairs (preconditioned LOBPCG per contour).");
   py::enum_<TimeScheme>(m, "TimeScheme").value("implicit_euler", TimeScheme::ImplicitEuler).value("crank_nicolson", TimeScheme::CrankNicolson);
-  py::class_<HeatFlow>(m, "HeatFlow", "Heat diffusion du/dtau = L u on any operator, factorized once; conserves each part's heat.")
-      .def(py::init([](const HeatOperator& op, double dt, TimeScheme s) {
+  py::enum_<HeatSolver>(m, "HeatSolver")
+      .value("auto", HeatSolver::Auto)
+      .value("factorization", HeatSolver::Factorization)
+      .value("conjugate_gradient", HeatSolver::ConjugateGradient);
+  py::class_<HeatFlow>(m, "HeatFlow", "Heat diffusion du/dtau = L u on any operator (curves: factorized once; surfaces: conjugate\n"
+                                      "gradients per step, where the factors would fill in); conserves each part's heat.")
+      .def(py::init([](const HeatOperator& op, double dt, TimeScheme s, HeatSolver solver) {
              py::gil_scoped_release release;
-             return std::make_unique<HeatFlow>(op, dt, s);
-           }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson)
+             return std::make_unique<HeatFlow>(op, dt, s, solver);
+           }), py::arg("op"), py::arg("dt"), py::arg("scheme") = TimeScheme::CrankNicolson, py::arg("solver") = HeatSolver::Auto)
+      .def_property_readonly("solver", &HeatFlow::solver, "The solver in use (auto resolved).")
+      .def_property_readonly("last_iterations", &HeatFlow::last_iterations, "CG iterations of the last step (0 factorized).")
       .def("step", &HeatFlow::step, py::arg("u"), Release())
       .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
   m.def("smooth_function", py::overload_cast<const HeatOperator&, const Eigen::VectorXd&, double, int>(&smooth_function), py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),

@@ -60,7 +60,7 @@ public:
 
 private:
   using ColMatrix = Eigen::SparseMatrix<double, Eigen::ColMajor, int>;
-  void factorize(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme, HeatSolver solver);
+  void prepare(const SparseMatrix& A, const Eigen::VectorXd& mass, TimeScheme scheme, HeatSolver solver);
   Eigen::VectorXd solve(const Eigen::VectorXd& b, const Eigen::VectorXd& guess) const;
   void conserve_heat(const Eigen::VectorXd& u, Eigen::VectorXd& next) const;
   // One copy of A serves both sides, M u + (1 - theta) dt A u and, for conjugate gradients,

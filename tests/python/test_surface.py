@@ -194,7 +194,13 @@ def test_matrix_free_surface_operator_from_scipy():
     assert np.allclose(s_free.eigenvalues[1:], s_assembled.eigenvalues[1:], rtol=1e-8)
     u0 = np.exp(-0.05 * ((free.positions - free.positions[0]) ** 2).sum(axis=1))
     flow = surface.MatrixFreeHeatFlow(free, op.t)
-    u, reference = flow.advance(u0, 5), digilap.HeatFlow(op, op.t).advance(u0, 5)
+    assembled_flow = digilap.HeatFlow(op, op.t)
+    assert assembled_flow.solver == digilap.HeatSolver.conjugate_gradient  # a surface: no factorization
+    u, reference = flow.advance(u0, 5), assembled_flow.advance(u0, 5)
+    assert assembled_flow.last_iterations > 0
+    factorized = digilap.HeatFlow(op, op.t, solver=digilap.HeatSolver.factorization)
+    assert factorized.solver == digilap.HeatSolver.factorization and factorized.last_iterations == 0
+    assert abs(factorized.advance(u0, 5) - reference).max() < 1e-9 * abs(reference).max()
     assert abs(u - reference).max() < 1e-9 * abs(reference).max()
     assert flow.last_iterations > 0
     f = x.copy()
