@@ -80,7 +80,8 @@ py::object csr_view(const SparseMatrix& m, py::handle owner) {
   const auto n = static_cast<py::ssize_t>(m.rows()), nnz = static_cast<py::ssize_t>(m.nonZeros());
   py::array data = view(m.valuePtr(), {nnz}, owner), indices = view(m.innerIndexPtr(), {nnz}, owner),
             indptr = view(m.outerIndexPtr(), {n + 1}, owner);
-  py::object csr = py::module_::import("scipy.sparse").attr("csr_matrix");
+  // digilap._views.OperatorMatrix: a csr_matrix whose in-place methods say to take a copy.
+  py::object csr = py::module_::import("digilap._views").attr("OperatorMatrix");
   return csr(py::make_tuple(data, indices, indptr), py::arg("shape") = py::make_tuple(n, n), py::arg("copy") = false);
 }
 

@@ -25,6 +25,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <tuple>
 #include <random>
 
@@ -703,6 +704,14 @@ TEST(Surface, BadNiftiVolumesAreRefused) {
   NiftiSample vast = cube(2), tiny = cube(2);
   vast.version = tiny.version = 2;
   for (int d = 0; d < 3; ++d) vast.spacing[d] = 1e200, tiny.spacing[d] = 1e-200;
+  // A 2-D image is refused as the .npy reader refuses it (it was read as a one-voxel slab).
+  NiftiSample flat = cube(4, std::string(16, '\1'));
+  flat.dim[0] = 2, flat.dim[3] = 1;
+  // NaN compares false with every threshold: it was read as background, a hole in the object.
+  std::vector<float> levels(8, 1.0f);
+  levels[5] = std::numeric_limits<float>::quiet_NaN();
+  NiftiSample with_nan = cube(2, raw(levels));
+  with_nan.datatype = DT_FLOAT32, with_nan.bitpix = 32;
   const std::string good = nifti_bytes(cube(4));
   const std::vector<std::tuple<std::string, std::string, std::string>> cases = {
       {"bad.nii", nifti_bytes(vast), "the voxel spacing 1e+200 is outside [1e-30, 1e+30]"},
@@ -722,6 +731,8 @@ TEST(Surface, BadNiftiVolumesAreRefused) {
       {"bad.nii.gz", std::string(400, 'x'), "not a NIfTI file"},
       {"bad.nii", nifti_bytes(zero_dim), "dimension 2 is 0"},
       {"bad.nii.gz", nifti_bytes(no_dims), "dim[0] is 0"},
+      {"bad.nii", nifti_bytes(flat), "it is a 2-D image; a volume needs 3 dimensions"},
+      {"bad.nii", nifti_bytes(with_nan), "voxel (1, 0, 1) is NaN"},
   };
   for (const auto& [name, bytes, fragment] : cases) {
     const std::string path = write_nifti(name, bytes);
@@ -729,6 +740,17 @@ TEST(Surface, BadNiftiVolumesAreRefused) {
     EXPECT_NE(message.find(fragment), std::string::npos) << name << " message: " << message;
     EXPECT_NE(message.find(name), std::string::npos) << message;
   }
+  VolumeOptions label1;
+  label1.label = 1;
+  EXPECT_NE(error_of([&] { read_volume(write_nifti("nan.nii", nifti_bytes(with_nan)), label1); }).find("voxel (1, 0, 1) is NaN"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { read_labels(write_nifti("nan.nii", nifti_bytes(with_nan))); }).find("voxel (1, 0, 1) is NaN"),
+            std::string::npos);
+  // Inf is a value: above the threshold, a voxel of the object (NaN is the one refused).
+  levels[5] = std::numeric_limits<float>::infinity();
+  NiftiSample with_inf = cube(2, raw(levels));
+  with_inf.datatype = DT_FLOAT32, with_inf.bitpix = 32;
+  EXPECT_EQ(read_volume(write_nifti("inf.nii", nifti_bytes(with_inf))).voxel_count(), 8);
   // The fuzzer's input that smashed nifticlib's stack (NIfTI-2, dim[0] = 849): refused before it.
   EXPECT_NE(error_of([] { read_volume(DIGILAP_SOURCE_DATA "/../fuzz/volume_corpus/regression_nifti2_dim0_849.nii"); })
                 .find("dim[0] is 849 (the number of dimensions must be 1 to 7)"),

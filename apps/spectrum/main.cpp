@@ -70,9 +70,12 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
   }
   if (bar.shown) progress.end_bar();
   const Eigen::VectorXd& lb = s.laplace_beltrami;
-  std::printf("# %s, h = %g, N = %ld surfels, area %.6g (exact %.6g), l = %.4g, R = %.4g, t = %.4g%s%s\n", name.c_str(), h,
-              static_cast<long>(surfels.size()), mu.total_area(), shape ? shape->area() : std::nan(""), mu.length_scale,
-              mu.normal_radius, t, fe.normals == "exact" ? ", exact normals" : "", matrix_free ? ", matrix-free" : "");
+  // A volume has no exact area to print; a reference surface has.
+  char exact_area[48] = "";
+  if (shape) std::snprintf(exact_area, sizeof exact_area, " (exact %.6g)", shape->area());
+  std::printf("# %s, h = %g, N = %ld surfels, area %.6g%s, l = %.4g, R = %.4g, t = %.4g%s%s\n", name.c_str(), h,
+              static_cast<long>(surfels.size()), mu.total_area(), exact_area, mu.length_scale, mu.normal_radius, t,
+              fe.normals == "exact" ? ", exact normals" : "", matrix_free ? ", matrix-free" : "");
   std::printf("# eigen-solver: %d iterations, %d products\n", s.iterations, s.operations);
   if (s.massless > 0)
     std::printf("# %ld surfels of zero area (II normal orthogonal to the surfel): off the support of mu, their "

@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -117,6 +118,35 @@ std::string spacing_text(double dx, double dy, double dz, int units) {
   return s.str() + unit;
 }
 
+// nifticlib's loader replaces every NaN and Inf of float data by 0 without a word
+// (nifti_read_buffer): a NaN would become background and an Inf above the threshold would be
+// dropped. Float data is therefore read here, through zlib (plain and gzipped files alike) and
+// byte-swapped as nifticlib does; the buffer is malloc'ed because nifti_image_free frees it.
+bool read_float_data(const std::string& path, nifti_image& nim, std::size_t bytes) {
+  gzFile file = gzopen(path.c_str(), "rb");
+  if (file == nullptr) return false;
+  void* data = std::malloc(std::max<std::size_t>(bytes, 1));
+  bool ok = data != nullptr && gzseek(file, static_cast<z_off_t>(nim.iname_offset), SEEK_SET) == nim.iname_offset;
+  for (std::size_t at = 0; ok && at < bytes;) {
+    const auto chunk = static_cast<unsigned>(std::min<std::size_t>(bytes - at, std::size_t{1} << 30));
+    const int got = gzread(file, static_cast<char*>(data) + at, chunk);
+    ok = got == static_cast<int>(chunk);
+    at += chunk;
+  }
+  gzclose(file);
+  if (!ok) {
+    std::free(data);
+    return false;
+  }
+  if (nim.byteorder != nifti_short_order()) {
+    const auto count = static_cast<std::int64_t>(bytes / static_cast<std::size_t>(nim.nbyper));
+    if (nim.nbyper == 4) nifti_swap_4bytes(count, data);
+    else nifti_swap_8bytes(count, data);
+  }
+  nim.data = data;
+  return true;
+}
+
 struct NiftiFree {
   void operator()(nifti_image* nim) const { nifti_image_free(nim); }
 };
@@ -130,8 +160,12 @@ struct NiftiGrid {
   std::int64_t nx = 0, ny = 0, nz = 0;
   double h = 1, slope = 1, inter = 0;
   bool scaled = false;
+  std::string path;
   double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
     const double raw = stored_value(*nim, static_cast<std::size_t>((k * ny + j) * nx + i));
+    // NaN is no label and compares false with every threshold: silently background, a hole in
+    // the object. Refused as the .npy reader refuses it (Inf is a value: above any threshold).
+    if (std::isnan(raw)) detail::refuse_nan_voxel(path, i, j, k);
     return scaled ? slope * raw + inter : raw;
   }
 };
@@ -153,6 +187,11 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
     const double n = d <= nim->ndim ? static_cast<double>(nim->dim[d]) : 1.0;
     (d <= 3 ? voxels : extra) *= n;
   }
+  // A 2-D file is an image, not a one-voxel slab (the .npy reader refuses 2-D arrays the same way).
+  if (nim->ndim < 3)
+    refuse(path, "it is a " + std::to_string(nim->ndim) +
+                     "-D image; a volume needs 3 dimensions (a 2-D mask goes through the curve pipeline: --image with a "
+                     "PNG or PGM, digilap.laplacian in Python; one slice as a volume: save it with shape (nx, ny, 1))");
   if (extra != 1)
     refuse(path, "it holds " + detail::count_text(extra) +
                      " volumes (a time series or vector data); give one 3-D volume");
@@ -187,7 +226,10 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
     refuse(path, "truncated: the data needs " + detail::count_text(voxels * nim->nbyper) +
                      " bytes from byte " + std::to_string(nim->iname_offset) + ", the file has " +
                      std::to_string(file_size));
-  if (nifti_image_load(nim.get()) != 0 || nim->data == nullptr) refuse(path, "truncated or unreadable voxel data");
+  const bool floating = nim->datatype == DT_FLOAT32 || nim->datatype == DT_FLOAT64;
+  const bool loaded = floating ? read_float_data(path, *nim, static_cast<std::size_t>(voxels) * static_cast<std::size_t>(nim->nbyper))
+                               : nifti_image_load(nim.get()) == 0 && nim->data != nullptr;
+  if (!loaded) refuse(path, "truncated or unreadable voxel data");
   // Scaled values, as NIfTI readers report them, when the file gives a slope.
   const double slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
@@ -195,6 +237,7 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   grid.h = o.h > 0 ? o.h : has_spacing ? dx : 1.0;  // no spacing: voxel units
   grid.nx = nx, grid.ny = ny, grid.nz = nz, grid.slope = slope, grid.inter = inter, grid.scaled = scaled;
   grid.nim = std::move(nim);
+  grid.path = path;
   return grid;
 }
 }  // namespace

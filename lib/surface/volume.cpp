@@ -165,12 +165,7 @@ struct NpyGrid {
     } else {
       value = static_cast<double>(bits);
     }
-    if (std::isnan(value)) {
-      char where[120];
-      std::snprintf(where, sizeof where, "voxel (%lld, %lld, %lld) is NaN", static_cast<long long>(i), static_cast<long long>(j),
-                    static_cast<long long>(k));
-      throw Error("cannot read volume '" + path + "': " + where + " (replace NaN first, e.g. np.nan_to_num)");
-    }
+    if (std::isnan(value)) detail::refuse_nan_voxel(path, i, j, k);
     return value;
   }
 };

@@ -24,6 +24,14 @@ inline bool is_foreground(const VolumeOptions& o, double value) {
   const auto label = static_cast<double>(o.label);
   return std::abs(value - label) <= 1e-6 * std::max(1.0, label);
 }
+/// Throws digilap::Error naming a NaN voxel: NaN is neither a label nor above a threshold, and
+/// reading it as background would silently cut a hole in the object.
+[[noreturn]] inline void refuse_nan_voxel(const std::string& path, std::int64_t i, std::int64_t j, std::int64_t k) {
+  char where[120];
+  std::snprintf(where, sizeof where, "voxel (%lld, %lld, %lld) is NaN", static_cast<long long>(i), static_cast<long long>(j),
+                static_cast<long long>(k));
+  throw Error("cannot read volume '" + path + "': " + where + " (replace NaN first, e.g. np.nan_to_num)");
+}
 /// A count from a header as text: whole below 2^63, else in exponent form (a header may declare
 /// sizes no integer type holds; converting those would be undefined behaviour).
 inline std::string count_text(double count) {

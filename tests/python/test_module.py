@@ -98,6 +98,24 @@ def test_arrays_are_views_on_the_operator_and_outlive_its_variable():
     assert mass.sum() == expected[1] and np.array_equal(positions, expected[2])
 
 
+def test_writing_into_a_view_says_how_to_get_a_writable_copy():
+    op = flower_operator()
+    L = op.L
+    before = L.copy()
+    writes = [lambda: L.eliminate_zeros(), lambda: L.__setitem__((0, 0), 3.0), lambda: L.setdiag(0.0),
+              lambda: L.__imul__(2.0), lambda: L.__itruediv__(2.0)]
+    for write in writes:
+        with pytest.raises(digilap.Error, match=r"read-only view on the operator's memory.*op\.L\.copy\(\)"):
+            write()
+    assert (op.L != before).nnz == 0  # nothing was written into the operator
+    # The copy is an ordinary writable matrix; reading works on the view as on any csr_matrix.
+    writable = op.L.copy()
+    writable.setdiag(0.0)
+    writable.eliminate_zeros()
+    assert writable.diagonal().max() == 0 and writable.nnz < L.nnz
+    assert scipy.sparse.isspmatrix_csr(L) and np.allclose((2 * L) @ np.ones(L.shape[0]), 2 * (L @ np.ones(L.shape[0])))
+
+
 def test_horse_spectrum_ratios_are_squares():
     path = os.path.join(os.environ.get("DIGILAP_TEST_DATA", ""), "horse.png")
     if not os.path.exists(path):
