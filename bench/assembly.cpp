@@ -8,7 +8,7 @@
 // a program that assembles repeatedly. First-touch page faults cost as much as the assembly
 // itself on this machine and vary from run to run with the kernel's memory state; the
 // "first run" column shows that cold cost.
-#include "digilap/heat_laplacian.hpp"
+#include "digilap/curve/heat_laplacian.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <CLI/CLI.hpp>

@@ -1,6 +1,6 @@
 // Time of the smallest eigenpairs through Spectra (shift-and-invert, sparse LDL^T) on the
 // flower, next to Eigen's dense generalized solver on the sizes it can handle, in one process.
-#include "digilap/spectrum.hpp"
+#include "digilap/curve/spectrum.hpp"
 
 #include <CLI/CLI.hpp>
 #include <Eigen/Dense>

@@ -1,7 +1,7 @@
 // Test helper: the message of the digilap::Error that f throws, or "" when it throws none.
 #pragma once
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <functional>
 #include <string>

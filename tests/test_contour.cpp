@@ -1,5 +1,5 @@
 // Contour tracking: topology, orientation and exact areas.
-#include "digilap/contour.hpp"
+#include "digilap/curve/contour.hpp"
 
 #include <gtest/gtest.h>
 

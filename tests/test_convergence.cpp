@@ -1,6 +1,6 @@
 // The sweep machinery of the convergence experiment, on coarse grids (fast).
-#include "digilap/convergence.hpp"
-#include "digilap/error.hpp"
+#include "digilap/curve/convergence.hpp"
+#include "digilap/core/error.hpp"
 
 #include <gtest/gtest.h>
 

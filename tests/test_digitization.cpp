@@ -1,7 +1,7 @@
 // Gauss digitization: exact pixel sets, without a dense bitmap.
-#include "digilap/contour.hpp"
-#include "digilap/digitization.hpp"
-#include "digilap/error.hpp"
+#include "digilap/curve/contour.hpp"
+#include "digilap/curve/digitization.hpp"
+#include "digilap/core/error.hpp"
 
 #include "error_of.hpp"
 

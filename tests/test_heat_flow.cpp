@@ -1,7 +1,9 @@
 // Heat flow: decay of the first mode against exp(-(2 pi / P)^2 tau); schemes compared.
-#include "digilap/error.hpp"
-#include "digilap/ground_truth.hpp"
-#include "digilap/heat_flow.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/ground_truth.hpp"
+#include "digilap/core/heat_flow.hpp"
+#include "digilap/curve/heat_laplacian.hpp"
+#include "digilap/curve/spectrum.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // The heat Laplacian: structure, agreement with a brute-force evaluation of SPEC §4, accuracy
 // against exact Laplacians (SPEC §5), determinism, memory guard.
-#include "digilap/error.hpp"
-#include "digilap/ground_truth.hpp"
-#include "digilap/heat_laplacian.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/ground_truth.hpp"
+#include "digilap/curve/heat_laplacian.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
 // Images in: Netpbm and PNG decoding, frame, binarization, contour filtering, the horse.
-#include "digilap/error.hpp"
-#include "digilap/heat_laplacian.hpp"
-#include "digilap/image.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/heat_laplacian.hpp"
+#include "digilap/curve/image.hpp"
+#include "digilap/curve/spectrum.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Files: Matrix Market round trip, CSV content, clear errors.
-#include "digilap/error.hpp"
-#include "digilap/io.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/io.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,12 +1,12 @@
 // The length scale l and the unit-free defaults t = c_t h^(2/3) l^(4/3), R = k_R h^(1/3) l^(2/3)
 // (issue 14): scale and canvas invariance, accuracy at the defaults, robustness of l.
-#include "digilap/convergence.hpp"
-#include "digilap/error.hpp"
-#include "digilap/heat_flow.hpp"
-#include "digilap/image.hpp"
-#include "digilap/length_scale.hpp"
-#include "digilap/matrix_free.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/curve/convergence.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/core/heat_flow.hpp"
+#include "digilap/curve/image.hpp"
+#include "digilap/curve/length_scale.hpp"
+#include "digilap/curve/matrix_free.hpp"
+#include "digilap/curve/spectrum.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,11 +1,11 @@
 // The matrix-free operator against the explicit matrix; spectrum and CG heat step through it;
 // the cyclic tridiagonal solver of its eigen solver's preconditioner.
-#include "digilap/error.hpp"
-#include "digilap/ground_truth.hpp"
-#include "digilap/heat_flow.hpp"
-#include "digilap/matrix_free.hpp"
-#include "digilap/spectrum.hpp"
-#include "cyclic_tridiagonal.hpp"  // internal (lib/): the preconditioner's solver
+#include "digilap/core/error.hpp"
+#include "digilap/curve/ground_truth.hpp"
+#include "digilap/core/heat_flow.hpp"
+#include "digilap/curve/matrix_free.hpp"
+#include "digilap/curve/spectrum.hpp"
+#include "curve/cyclic_tridiagonal.hpp"  // internal (lib/): the preconditioner's solver
 
 #include <gtest/gtest.h>
 #include <omp.h>

@@ -1,6 +1,6 @@
 // Measures: lengths converge to the exact length, arclength and distances are consistent.
-#include "digilap/error.hpp"
-#include "digilap/measures.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/measures.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Integral Invariant normals: exactness of the O(R/h) moments, convergence, determinism.
-#include "digilap/error.hpp"
-#include "digilap/normals.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/normals.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <gtest/gtest.h>

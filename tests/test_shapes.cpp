@@ -1,6 +1,6 @@
 // Shapes: exact geometry checked against independent computations.
-#include "digilap/error.hpp"
-#include "digilap/shapes.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/shapes.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,6 @@
 // Smoothing: a noisy digitized circle becomes rounder; the area is kept when asked.
-#include "digilap/error.hpp"
-#include "digilap/smoothing.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/smoothing.hpp"
 
 #include <gtest/gtest.h>
 

@@ -1,8 +1,8 @@
 // Spectrum: eigenvalues against SPEC §5, M-orthonormality, several contours, clear errors.
-#include "digilap/error.hpp"
-#include "digilap/image.hpp"
-#include "digilap/matrix_free.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/image.hpp"
+#include "digilap/curve/matrix_free.hpp"
+#include "digilap/curve/spectrum.hpp"
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>

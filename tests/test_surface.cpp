@@ -1,9 +1,9 @@
 // Digital surfaces in 3D (SPEC §7, issue 13): reference surfaces, Gauss digitization, surfels,
 // II normals, areas, the heat-kernel operator against the exact Laplace-Beltrami operator and
 // against an independent NumPy implementation of SPEC §7 (the figures issue 13 quotes).
-#include "digilap/error.hpp"
-#include "digilap/heat_flow.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/core/heat_flow.hpp"
+#include "digilap/curve/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/ply.hpp"
 #include "digilap/surface/smoothing.hpp"

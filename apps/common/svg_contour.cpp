@@ -1,6 +1,6 @@
 #include "svg_contour.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <algorithm>
 #include <cmath>

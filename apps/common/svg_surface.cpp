@@ -1,6 +1,6 @@
 #include "svg_surface.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,51 +1,5 @@
-// digilap — Laplacian smoothing of functions on the contours and of the contours themselves.
-//
-// Smoothing is heat diffusion for a time tau (implicit Euler, `steps` equal steps), tau being
-// the stopping parameter. A mode of wavelength lambda along the contour is damped by about
-// exp(-(1 - exp(-omega^2 t)) tau / t), omega = 2 pi / lambda (SPEC §5): long waves by
-// exp(-omega^2 tau) as in the continuous flow, but the heat-kernel operator's eigenvalues stop
-// at 1/t, so the shortest features (noise) decay no faster than exp(-tau / t). Hence: take
-// tau >= 5 t to remove noise (t = op.t), and tau << (lambda / 2 pi)^2 to keep features of
-// wavelength lambda.
+// Kept for one release: this header moved to digilap/curve/smoothing.hpp (the 2D pipeline; see the
+// CHANGELOG's migration note). Its names stay digilap::X through the inline namespace curve.
 #pragma once
 
-#include "digilap/heat_laplacian.hpp"
-
-#include <Eigen/Core>
-
-namespace digilap {
-
-/// Columns of f (functions on the rows of (A, M), any number: values, positions in 2D or 3D)
-/// diffused for time tau by the heat flow of (A, M), implicit Euler in `steps` equal steps: the
-/// dimension-free core of the smoothing functions. Throws digilap::Error for tau not > 0 and
-/// finite, steps < 1, a size mismatch, or a mass that is not > 0 (zero-mass rows need the
-/// operator: smooth(op, f, tau, steps)).
-Eigen::MatrixXd smooth(const SparseMatrix& A, const Eigen::VectorXd& mass, const Eigen::MatrixXd& f, double tau, int steps = 1);
-/// The same from an operator of any dimension: zero-mass rows follow their row of L.
-Eigen::MatrixXd smooth(const HeatOperator& op, const Eigen::MatrixXd& f, double tau, int steps = 1);
-
-/// A function on an operator's rows (contours or surfaces) smoothed by diffusion for time tau;
-/// zero-mass rows follow their row of L (heat_flow.hpp). Throws digilap::Error for tau not > 0
-/// and finite, steps < 1, a size mismatch, or as HeatFlow(op, dt).
-Eigen::VectorXd smooth_function(const HeatOperator& op, const Eigen::VectorXd& f, double tau, int steps = 1);
-
-struct ContourSmoothingOptions {
-  double tau = 1e-2;  ///< diffusion time (the stopping parameter, see above)
-  int steps = 4;      ///< implicit Euler steps
-  /// Rescale each contour about its centroid after smoothing so that it encloses the area it
-  /// enclosed before (diffusion shrinks curves: a circle of radius r by exp(-tau / r^2)).
-  bool preserve_area = true;
-};
-
-/// Fairing of the contours: the element positions (x and y as functions) diffused by the
-/// operator (a linearized curve-shortening flow). Returns the new positions, row by row.
-Eigen::MatrixX2d smooth_positions(const ContourOperator& op, const ContourSmoothingOptions& options = {});
-
-/// Signed area enclosed by each contour's polygon of element positions.
-Eigen::VectorXd enclosed_areas(const ContourOperator& op, const Eigen::MatrixX2d& positions);
-
-/// Roundness of one contour: standard deviation of the distance to the centroid divided by
-/// its mean (0 for a perfect circle).
-double roundness(const Eigen::MatrixX2d& positions, Eigen::Index first_row, Eigen::Index end_row);
-
-}  // namespace digilap
+#include "digilap/curve/smoothing.hpp"

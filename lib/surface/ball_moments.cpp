@@ -1,6 +1,6 @@
 #include "ball_moments.hpp"
 
-#include "../core/lattice.hpp"
+#include "core/lattice.hpp"
 
 #include <algorithm>
 

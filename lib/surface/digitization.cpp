@@ -1,7 +1,7 @@
 #include "digilap/surface/digitization.hpp"
 
-#include "digilap/error.hpp"
-#include "../runs.hpp"
+#include "digilap/core/error.hpp"
+#include "core/runs.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -1,7 +1,7 @@
 #include "digilap/surface/heat_laplacian.hpp"
 
-#include "digilap/error.hpp"
-#include "../row_assembly.hpp"
+#include "digilap/core/error.hpp"
+#include "core/row_assembly.hpp"
 #include "surfel_grid.hpp"
 
 #include <algorithm>

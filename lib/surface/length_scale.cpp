@@ -1,7 +1,7 @@
 #include "digilap/surface/length_scale.hpp"
 #include "digilap/core/constants.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "ball_moments.hpp"
 
 #include <algorithm>

@@ -1,10 +1,10 @@
 #include "digilap/surface/matrix_free.hpp"
 
-#include "digilap/error.hpp"
-#include "../eigen_checks.hpp"
-#include "../gaussian_kernel.hpp"
-#include "../lobpcg.hpp"
-#include "../spectrum_parts.hpp"
+#include "digilap/core/error.hpp"
+#include "core/eigen_checks.hpp"
+#include "core/gaussian_kernel.hpp"
+#include "core/lobpcg.hpp"
+#include "core/spectrum_parts.hpp"
 #include "surfel_grid.hpp"
 
 #include <Eigen/SparseCholesky>

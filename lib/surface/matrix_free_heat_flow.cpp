@@ -1,7 +1,7 @@
 #include "digilap/surface/matrix_free_heat_flow.hpp"
 
-#include "digilap/error.hpp"
-#include "../core/conjugate_gradients.hpp"
+#include "digilap/core/error.hpp"
+#include "core/conjugate_gradients.hpp"
 
 #include <cmath>
 #include <sstream>

@@ -1,6 +1,6 @@
 #include "digilap/surface/measures.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <algorithm>
 

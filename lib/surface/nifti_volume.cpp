@@ -5,7 +5,7 @@
 // sizes it declares are checked against the limit before any voxel is read.
 #include "digilap/surface/volume.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "volume_grid.hpp"
 
 #include <nifti2_io.h>

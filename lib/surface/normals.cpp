@@ -1,9 +1,9 @@
 #include "digilap/surface/normals.hpp"
 #include "digilap/core/constants.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "digilap/surface/length_scale.hpp"
-#include "../core/lattice.hpp"
+#include "core/lattice.hpp"
 #include "ball_moments.hpp"
 
 #include <Eigen/Eigenvalues>

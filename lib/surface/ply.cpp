@@ -1,6 +1,6 @@
 #include "digilap/surface/ply.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <algorithm>
 #include <cctype>

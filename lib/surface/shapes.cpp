@@ -1,8 +1,8 @@
 #include "digilap/surface/shapes.hpp"
 #include "digilap/core/constants.hpp"
 
-#include "digilap/error.hpp"
-#include "../shape_parameters.hpp"
+#include "digilap/core/error.hpp"
+#include "core/shape_parameters.hpp"
 
 #include <unsupported/Eigen/Polynomials>
 

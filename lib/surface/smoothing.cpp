@@ -1,8 +1,8 @@
 #include "digilap/surface/smoothing.hpp"
 
-#include "digilap/error.hpp"
-#include "digilap/smoothing.hpp"
-#include "../components.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/core/smoothing.hpp"
+#include "core/components.hpp"
 
 #include <cmath>
 

@@ -4,7 +4,7 @@
 // heat time.
 #pragma once
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "digilap/core/constants.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 

@@ -1,6 +1,6 @@
 #include "digilap/surface/volume.hpp"
 
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "volume_grid.hpp"
 
 #include <algorithm>

@@ -4,7 +4,7 @@
 
 #include "digilap/surface/digitization.hpp"
 #include "digilap/surface/volume.hpp"
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 
 #include <algorithm>
 #include <cmath>

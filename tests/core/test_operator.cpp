@@ -2,9 +2,9 @@
 // zero mass, through every downstream function, in both dimensions (issues 21 and 22).
 #include "digilap/core/error.hpp"
 #include "digilap/core/operator.hpp"
-#include "digilap/heat_flow.hpp"
-#include "digilap/smoothing.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/core/heat_flow.hpp"
+#include "digilap/curve/smoothing.hpp"
+#include "digilap/curve/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <Eigen/Dense>

@@ -1,9 +1,9 @@
 // libFuzzer target: image reader -> binarization -> contour tracking -> II normals -> measures.
 // Any input must give a result or a digilap::Error; anything else (a crash, a sanitizer
 // report, another exception) is a bug. Built and run by scripts/fuzz.sh.
-#include "digilap/error.hpp"
-#include "digilap/image.hpp"
-#include "digilap/measures.hpp"
+#include "digilap/core/error.hpp"
+#include "digilap/curve/image.hpp"
+#include "digilap/curve/measures.hpp"
 
 #include <cstddef>
 #include <cstdint>

@@ -2,7 +2,7 @@
 // since nifticlib reads files) -> surfels -> II normals -> areas. Any input must give a result
 // or a digilap::Error; anything else (a crash, a sanitizer report, another exception) is a bug.
 // Built and run by scripts/fuzz.sh.
-#include "digilap/error.hpp"
+#include "digilap/core/error.hpp"
 #include "digilap/surface/measures.hpp"
 #include "digilap/surface/volume.hpp"
 

@@ -2,9 +2,9 @@
 // bit for bit whatever the thread count, on one surface, on several, and with zero-area surfels
 // of a real label; and the spectrum from products equals the assembled operator's.
 #include "digilap/core/error.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/curve/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
-#include "digilap/smoothing.hpp"
+#include "digilap/curve/smoothing.hpp"
 #include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/volume.hpp"

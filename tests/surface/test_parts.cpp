@@ -3,7 +3,7 @@
 // surfaces, one zero eigenvalue per surface, and a measured l that does not depend on how the
 // volume is stored (the lattice's symmetries).
 #include "digilap/core/error.hpp"
-#include "digilap/spectrum.hpp"
+#include "digilap/curve/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/length_scale.hpp"
 

@@ -1,6 +1,6 @@
 // digilap — what every heat-kernel Laplacian is, whatever the dimension (core).
 //
-// A contour operator (curves, d = 1, heat_laplacian.hpp) and a surface operator (surfaces,
+// A contour operator (curves, d = 1, curve/heat_laplacian.hpp) and a surface operator (surfaces,
 // d = 2, surface/heat_laplacian.hpp) are both a HeatOperator: the Laplacian L (approximates
 // +Laplace-Beltrami, negative semidefinite, rows summing to 0, L_ij = w_ij mu_j >= 0), the
 // symmetric stiffness A = M L, the mass matrix M = diag(mu), the heat time t and the kernel's

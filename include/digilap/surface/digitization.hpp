@@ -1,9 +1,9 @@
 // digilap — sets of voxels and the Gauss digitization of surfaces (SPEC §7), stored as runs
 // along x per (y, z) row: memory grows with the surface, not the volume. The 3D sibling of
-// digitization.hpp.
+// curve/digitization.hpp.
 #pragma once
 
-#include "digilap/digitization.hpp"
+#include "digilap/core/runs.hpp"
 #include "digilap/surface/shapes.hpp"
 
 #include <cstdint>

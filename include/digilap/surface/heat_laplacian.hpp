@@ -1,5 +1,5 @@
 // digilap — the heat-kernel Laplacian on digital surfaces (SPEC §7), the 3D sibling of
-// heat_laplacian.hpp, with the same compressed-row layout and conventions:
+// curve/heat_laplacian.hpp, with the same compressed-row layout and conventions:
 //
 //   (L g)_i = 1 / (4 pi t^2) sum_{j != i, |x_i - x_j| <= k sqrt(t)} exp(-|x_i - x_j|^2 / (4t)) (g_j - g_i) mu_j
 //
@@ -9,7 +9,8 @@
 // op.mass), HeatFlow(op.A, op.mass, dt).
 #pragma once
 
-#include "digilap/heat_laplacian.hpp"
+#include "digilap/core/heat_kernel.hpp"
+#include "digilap/core/operator.hpp"
 #include "digilap/surface/measures.hpp"
 #include "digilap/surface/surfels.hpp"
 

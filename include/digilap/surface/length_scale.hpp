@@ -1,6 +1,6 @@
 // digilap — the length scale l of a digital surface, measured on its voxels, from which the
 // default heat time and II radius follow without hidden units: the 3D sibling of
-// length_scale.hpp, with the same options and result,
+// curve/length_scale.hpp, with the same options and result,
 //
 //   t = c_t h^(2/3) l^(4/3),   R = k_R h^(1/3) l^(2/3).
 //
@@ -17,7 +17,7 @@
 // flipped give the same l, whatever the storage order).
 #pragma once
 
-#include "digilap/length_scale.hpp"
+#include "digilap/core/length_scale.hpp"
 #include "digilap/surface/digitization.hpp"
 #include "digilap/surface/surfels.hpp"
 

@@ -14,7 +14,7 @@
 // number of threads, bit for bit.
 #pragma once
 
-#include "digilap/spectrum.hpp"
+#include "digilap/core/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <Eigen/Core>

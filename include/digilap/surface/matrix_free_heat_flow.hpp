@@ -1,5 +1,5 @@
 // digilap — heat flow and smoothing on the matrix-free surface operator (issue 23): the
-// schemes of HeatFlow (heat_flow.hpp), each step solved by conjugate gradients on products, so
+// schemes of HeatFlow (core/heat_flow.hpp), each step solved by conjugate gradients on products, so
 // memory stays O(N) where the assembled operator would take k^2 pi t / h^2 nonzeros a row.
 //
 // A step solves (M - theta dt A) u' = M u + (1 - theta) dt A u by Jacobi-preconditioned CG
@@ -8,7 +8,7 @@
 // rounding. The products are bitwise thread-independent, and so is the flow.
 #pragma once
 
-#include "digilap/heat_flow.hpp"
+#include "digilap/core/heat_flow.hpp"
 #include "digilap/surface/matrix_free.hpp"
 
 #include <Eigen/Core>
@@ -40,7 +40,7 @@ private:
 };
 
 /// Columns of f diffused for time tau by implicit Euler in `steps` steps on the matrix-free
-/// operator (smoothing.hpp's smooth, without storing L). Throws digilap::Error for tau not > 0
+/// operator (core/smoothing.hpp's smooth, without storing L). Throws digilap::Error for tau not > 0
 /// and finite, steps < 1, a size mismatch, or as MatrixFreeHeatFlow.
 Eigen::MatrixXd smooth(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& f, double tau, int steps = 1);
 

@@ -1,4 +1,4 @@
-// digilap — areas of the surfels (SPEC §7), the 3D sibling of measures.hpp.
+// digilap — areas of the surfels (SPEC §7), the 3D sibling of curve/measures.hpp.
 #pragma once
 
 #include "digilap/surface/normals.hpp"

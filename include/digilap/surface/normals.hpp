@@ -1,6 +1,6 @@
 // digilap — normals of the surfels: Integral Invariant estimates and exact references (SPEC §7),
-// the 3D sibling of normals.hpp, with the length scale l of the unit-free defaults
-// (length_scale.hpp): R = k_R h^(1/3) l^(2/3).
+// the 3D sibling of curve/normals.hpp, with the length scale l of the unit-free defaults
+// (surface/length_scale.hpp): R = k_R h^(1/3) l^(2/3).
 #pragma once
 
 #include "digilap/surface/shapes.hpp"

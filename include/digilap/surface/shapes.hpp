@@ -1,5 +1,5 @@
 // digilap — closed surfaces with exact geometry, the 3D reference shapes (SPEC §7): sphere,
-// ellipsoid, torus, each with a pose. The surface sibling of shapes.hpp.
+// ellipsoid, torus, each with a pose. The surface sibling of curve/shapes.hpp.
 #pragma once
 
 #include <Eigen/Core>

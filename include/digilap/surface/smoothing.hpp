@@ -1,7 +1,8 @@
 // digilap — fairing of digital surfaces: the surfel centres diffused by the surface operator,
-// the 3D sibling of smoothing.hpp (same stopping parameter tau, same heat flow on (A, M)).
+// the 3D sibling of curve/smoothing.hpp (same stopping parameter tau, same heat flow on (A, M)).
 #pragma once
 
+#include "digilap/core/smoothing.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <Eigen/Core>
@@ -9,7 +10,7 @@
 namespace digilap::surface {
 
 struct SurfaceSmoothingOptions {
-  double tau = 1e-2;  ///< diffusion time (the stopping parameter, see smoothing.hpp)
+  double tau = 1e-2;  ///< diffusion time (the stopping parameter, see curve/smoothing.hpp)
   int steps = 4;      ///< implicit Euler steps
   /// Rescale each connected surface about its centroid after smoothing so that its
   /// area-weighted RMS distance to the centroid is what it was (diffusion shrinks surfaces: a

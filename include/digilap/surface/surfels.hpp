@@ -1,4 +1,4 @@
-// digilap — the boundary of a voxel set: its surfels (SPEC §7), the 3D sibling of contour.hpp.
+// digilap — the boundary of a voxel set: its surfels (SPEC §7), the 3D sibling of curve/contour.hpp.
 // A surfel is the unit square face between a voxel of the set and a 6-neighbour outside it;
 // objects touching by an edge or a corner only are separated (the set is 6-connected).
 #pragma once

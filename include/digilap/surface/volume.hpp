@@ -1,5 +1,5 @@
 // digilap — volumes in: NumPy .npy arrays and NIfTI-1/2 files (a segmentation, a binary volume)
-// as voxel sets, the 3D sibling of image.hpp.
+// as voxel sets, the 3D sibling of curve/image.hpp.
 #pragma once
 
 #include "digilap/surface/digitization.hpp"

@@ -1,0 +1,126 @@
+// digilap — the smallest eigenpairs of a heat operator of any dimension through Spectra (core;
+// SPEC §4, §5, §7).
+//
+// Solves the generalized problem  -A x = lambda M x  (A = M L symmetric negative semidefinite,
+// M = diag(mu)) for its smallest eigenvalues, ascending, by Lanczos in shift-and-invert mode
+// with a sparse Cholesky (LDL^T) factorization of -A - sigma M, sigma slightly negative, or by
+// block LOBPCG on products when the factorization would fill in (surfaces; SpectrumMethod).
+// Eigenvectors are M-orthonormal: x_i^T M x_j = delta_ij, with a fixed sign (the entry of
+// largest magnitude is positive). Each closed contour contributes one eigenvalue 0 (its
+// constant vector).
+//
+// Repeated eigenvalues are all returned. The operator falls into connected components (one per
+// contour in geodesic mode) whose spectra make up the whole one, with multiplicities: ten
+// identical contours give every eigenvalue ten times, which a Krylov solver run on the whole
+// would see once. So each component is solved on its own (densely up to 400 rows, in parallel
+// when there are several) and the results merged; a component's Lanczos answer is checked by
+// the inertia of -A - sigma M (the number of eigenvalues below sigma) and recomputed when it
+// skipped a copy.
+//
+// Elements of zero mass (mu = 0) have vanishing rows and columns in A: the problem lives on the
+// support of mu, and is solved there (every method). Their eigenvector entries are 0 from
+// (A, mass) alone; from an operator (smallest_eigenpairs(op)) they are the heat-kernel average
+// of their neighbours, their row of L (core/operator.hpp). Spectrum::massless counts them.
+#pragma once
+
+#include "digilap/core/operator.hpp"
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <vector>
+
+namespace digilap {
+
+/// How smallest_eigenpairs solves a large part (small ones are dense).
+enum class SpectrumMethod {
+  /// Factorization (shift-and-invert Lanczos), unless block LOBPCG on products alone converges
+  /// within the factorization's own cost, as it does on surfaces (whose factor fills in).
+  Auto,
+  // (From an operator of dimension >= 2, or with SpectrumOptions::dimension >= 2, Auto means
+  // Products: a surface's factorization fills in.)
+  /// Shift-and-invert Lanczos on a sparse LDL^T of -A - sigma M (curves: the factor stays a band).
+  Factorization,
+  /// Block LOBPCG on products with A, no factorization and no symbolic analysis (surfaces: the
+  /// spectrum stops near 1 / t, so 21-34 iterations from h = 0.1 to 0.02 on the unit sphere);
+  /// falls back to the factorization if it does not converge in max_iterations.
+  Products,
+};
+
+struct SpectrumOptions {
+  int count = 10;            ///< number of eigenpairs (smallest first)
+  SpectrumMethod method = SpectrumMethod::Auto;  ///< explicit operators: see SpectrumMethod
+  int max_iterations = 1000; ///< Lanczos restarts, or LOBPCG iterations, allowed
+  double tolerance = 1e-10;  ///< relative tolerance on the Ritz values
+  /// Krylov subspace size; 0 = max(2 count + 1, 20) for Lanczos (max(4 count, 40) on the
+  /// matrix-free path), capped at N
+  int subspace = 0;
+  /// The manifold's dimension d of (A, M) (1: curves, 2: surfaces): the Lanczos shift is
+  /// -1e-2 (2 pi)^2 / (sum mu)^(2/d), a hundredth of the first eigenvalue's order whatever the
+  /// units, and Auto means Products for d >= 2. smallest_eigenpairs(op) takes op.dimension.
+  int dimension = 1;
+  /// The dense blocks LOBPCG may allocate (it holds about 11 blocks of N x (count + guard)
+  /// doubles); above it, the factorization (explicit operators) or Lanczos (matrix-free), else
+  /// digilap::Error.
+  double memory_limit_bytes = 8.0 * (1ull << 30);
+  /// Optional: called after each LOBPCG iteration with the iteration and the largest wanted
+  /// residual relative to the tolerance (converged when <= 1).
+  std::function<void(int iteration, double residual_over_tolerance)> progress;
+};
+
+struct Spectrum {
+  Eigen::VectorXd eigenvalues;   ///< ascending, the operator's own (raw) eigenvalues lambda
+  /// Laplace-Beltrami estimates -ln(1 - lambda t) / t (see laplace_beltrami_eigenvalues()),
+  /// filled by the solvers that know t (from an operator); +infinity where lambda t >= 1.
+  Eigen::VectorXd laplace_beltrami;
+  /// How many eigenvalues have lambda t >= 1, where no estimate exists (0 when all are defined).
+  int undefined_estimates = 0;
+  Eigen::MatrixXd eigenvectors;  ///< one M-normalized column per eigenvalue
+  /// Rows of zero mass: off the support of mu, where the problem was solved (see above).
+  Eigen::Index massless = 0;
+  int iterations = 0;            ///< Lanczos restarts, or LOBPCG iterations, used (summed over parts)
+  int operations = 0;            ///< applications of the shift-inverted operator
+};
+
+/// The `count` smallest eigenpairs of -A x = lambda M x, on the support of mu (entries of zero
+/// mass rows are 0). Throws digilap::Error when a mass is negative or not finite, when count is
+/// not in [1, N_support - 1], or when Spectra does not converge (the message says how many did,
+/// and what to try: more iterations, a larger subspace).
+Spectrum smallest_eigenpairs(const SparseMatrix& A, const Eigen::VectorXd& mass, const SpectrumOptions& options = {});
+
+/// From an operator of any dimension (op.A, op.mass, op.dimension): also fills the
+/// Laplace-Beltrami estimates, each eigenvector's from the heat time of the part it lives on,
+/// and gives zero-mass rows the average of their neighbours (their row of op.L). Throws
+/// digilap::Error as above, when the operator was assembled without A, or when a zero-mass row
+/// has no neighbour with mass within the cut (a part with no mass at all).
+Spectrum smallest_eigenpairs(const HeatOperator& op, const SpectrumOptions& options = {});
+
+/// The spectrum of each part (contour, surface) on its own (the natural shape descriptor of each
+/// object): element p holds the min(count, n_p) smallest eigenpairs of part p on its n_p rows
+/// (row op.row_offset[p] + i of the operator is entry i), n_p counting its rows with mass.
+/// Parts are solved in parallel; a part with no mass at all gets an empty spectrum (no
+/// eigenvalue, massless = n_p). Throws digilap::Error when parts interact (contours at the
+/// Euclidean distance), or as smallest_eigenpairs(op).
+std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const SpectrumOptions& options = {});
+
+/// Undoes the heat kernel's bias on eigenvalues: the heat-kernel operator with time t has
+/// eigenvalues lambda = (1 - exp(-mu t)) / t where the Laplace-Beltrami operator has mu (SPEC
+/// §5; exact on a closed curve's spectrum, to 2e-4 on digital contours), so mu = -ln(1 - lambda
+/// t) / t. Undefined for lambda t >= 1 (the operator's spectrum stops at 1 / t): those entries
+/// are +infinity, and `undefined` (if given) receives their number. Throws digilap::Error for t
+/// not > 0 and finite.
+Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined = nullptr);
+
+/// The heat kernel signature (Sun, Ovsjanikov, Guibas 2009) of every row at each time tau:
+/// HKS(x, tau) = sum_k exp(-lambda_k tau) phi_k(x)^2 over the spectrum's M-orthonormal pairs,
+/// lambda_k its Laplace-Beltrami estimates when it has them (an undefined one, +infinity, adds
+/// nothing), else its eigenvalues. Returns N x times.size(). Throws digilap::Error for a time
+/// not > 0 and finite.
+Eigen::MatrixXd heat_kernel_signature(const Spectrum& spectrum, const std::vector<double>& times);
+
+/// `count` times log-spaced from 4 ln 10 / lambda_last to 4 ln 10 / lambda_1 (the signature's
+/// usual range: the last mode decayed to 1e-4, the first just starting), lambda_1 the first
+/// non-zero eigenvalue. Throws digilap::Error when the spectrum has no non-zero eigenvalue.
+std::vector<double> heat_kernel_signature_times(const Spectrum& spectrum, int count = 5);
+
+}  // namespace digilap

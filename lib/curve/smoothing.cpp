@@ -1,0 +1,57 @@
+#include "digilap/curve/smoothing.hpp"
+
+#include "digilap/core/error.hpp"
+#include "digilap/core/heat_flow.hpp"
+
+#include <cmath>
+#include <sstream>
+#include <string>
+
+namespace digilap::curve {
+
+namespace {
+Eigen::Vector2d centroid(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index b) {
+  return p.middleRows(a, b - a).colwise().mean().transpose();
+}
+}  // namespace
+
+Eigen::VectorXd enclosed_areas(const ContourOperator& op, const Eigen::MatrixX2d& p) {
+  Eigen::VectorXd areas(static_cast<Eigen::Index>(op.row_offset.size()) - 1);
+  for (Eigen::Index c = 0; c + 1 < static_cast<Eigen::Index>(op.row_offset.size()); ++c) {
+    const Eigen::Index a = op.row_offset[c], b = op.row_offset[c + 1];
+    double twice = 0;
+    for (Eigen::Index r = a; r < b; ++r) {
+      const Eigen::Index s = (r + 1 < b) ? r + 1 : a;
+      twice += p(r, 0) * p(s, 1) - p(s, 0) * p(r, 1);
+    }
+    areas[c] = 0.5 * twice;
+  }
+  return areas;
+}
+
+double roundness(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index b) {
+  if (b - a < 3) throw Error("roundness: a contour needs at least 3 points");
+  const Eigen::Vector2d c = centroid(p, a, b);
+  Eigen::VectorXd r(b - a);
+  for (Eigen::Index i = a; i < b; ++i) r[i - a] = (p.row(i).transpose() - c).norm();
+  const double mean = r.mean();
+  return std::sqrt((r.array() - mean).square().mean()) / mean;
+}
+
+Eigen::MatrixX2d smooth_positions(const ContourOperator& op, const ContourSmoothingOptions& o) {
+  // x and y as two functions, through the core's smoothing (the same flow, step for step).
+  Eigen::MatrixX2d p = smooth(op, Eigen::MatrixXd(op.positions), o.tau, o.steps);
+  if (o.preserve_area) {
+    const Eigen::VectorXd before = enclosed_areas(op, op.positions), after = enclosed_areas(op, p);
+    for (Eigen::Index c = 0; c < before.size(); ++c) {
+      if (!(after[c] * before[c] > 0)) continue;  // collapsed or flipped: nothing sensible to rescale
+      const Eigen::Index a = op.row_offset[c], b = op.row_offset[c + 1];
+      const Eigen::RowVector2d g = centroid(p, a, b).transpose();
+      const double s = std::sqrt(before[c] / after[c]);
+      p.middleRows(a, b - a) = ((p.middleRows(a, b - a).rowwise() - g) * s).rowwise() + g;
+    }
+  }
+  return p;
+}
+
+}  // namespace digilap::curve
