@@ -9,7 +9,7 @@
 #include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/volume.hpp"
 
-#include "../on_threads.hpp"
+#include "on_threads.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>

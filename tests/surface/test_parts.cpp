@@ -7,7 +7,7 @@
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/length_scale.hpp"
 
-#include "../on_threads.hpp"
+#include "on_threads.hpp"
 
 #include <gtest/gtest.h>
 
