@@ -10,17 +10,17 @@ cd "$(dirname "$0")/.."
 seconds="${1:-60}"
 ./scripts/setup.sh clang libclang-rt-dev
 mkdir -p build-fuzz
-srcs=(lib/image.cpp lib/digitization.cpp lib/contour.cpp lib/normals.cpp lib/measures.cpp lib/shapes.cpp lib/disk_moments.cpp
-      lib/length_scale.cpp lib/shape_parameters.cpp)
+srcs=(lib/curve/image.cpp lib/curve/digitization.cpp lib/curve/contour.cpp lib/curve/normals.cpp lib/curve/measures.cpp
+      lib/curve/shapes.cpp lib/curve/disk_moments.cpp lib/curve/length_scale.cpp lib/core/shape_parameters.cpp)
 # No OpenMP here: one thread per input is what libFuzzer wants; the pragmas are ignored.
 flags=(-std=c++17 -O2 -g -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=undefined -Wno-unknown-pragmas
-       -Iinclude -I/usr/include/eigen3)
+       -Iinclude -Ilib -I/usr/include/eigen3)
 # stb's zero-byte memcpy from a null pointer is harmless: the same exemption as in lib/CMakeLists.txt.
-clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/png_decode.cpp -o build-fuzz/png_decode.o
+clang++ "${flags[@]}" -fno-sanitize=nonnull-attribute -c lib/curve/png_decode.cpp -o build-fuzz/png_decode.o
 clang++ "${flags[@]}" "${srcs[@]}" tests/fuzz/fuzz_image.cpp build-fuzz/png_decode.o -o build-fuzz/fuzz_image
 volume_srcs=(lib/surface/volume.cpp lib/surface/nifti_volume.cpp lib/surface/digitization.cpp lib/surface/surfels.cpp lib/surface/normals.cpp
              lib/surface/measures.cpp lib/surface/shapes.cpp lib/surface/length_scale.cpp lib/surface/ball_moments.cpp
-             lib/digitization.cpp lib/shapes.cpp lib/shape_parameters.cpp)
+             lib/curve/digitization.cpp lib/curve/shapes.cpp lib/core/shape_parameters.cpp)
 # nifticlib (Debian's, not instrumented) is linked as it is: ASan still sees its heap.
 clang++ "${flags[@]}" -I/usr/include/nifti "${volume_srcs[@]}" tests/fuzz/fuzz_volume.cpp -lnifti2 -lz -o build-fuzz/fuzz_volume
 status=0
