@@ -5,7 +5,8 @@
 #include <algorithm>
 #include <numeric>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 Eigen::Vector2i step_vector(Step s) {
   switch (s) {
@@ -139,4 +140,5 @@ ContourSet track_contours(const DigitalSet& set) {
   return result;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

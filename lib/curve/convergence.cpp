@@ -8,7 +8,8 @@
 #include <cmath>
 #include <map>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -127,4 +128,5 @@ ConvergenceResult convergence_sweep(const Shape& shape, const TestFunction& f, c
   return result;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

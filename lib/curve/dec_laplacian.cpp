@@ -7,7 +7,8 @@
 
 #include <vector>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 using detail::Elements;
 using detail::gather_elements;
@@ -57,4 +58,5 @@ ContourOperator dec_laplacian(const ContourSet& contours, const Measures& measur
   return op;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

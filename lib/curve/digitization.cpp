@@ -9,7 +9,8 @@
 #include <limits>
 #include <sstream>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 
@@ -254,4 +255,5 @@ DigitalSet digitize(const Shape& shape, double h) {
   return DigitalSet::from_rows(h, row0, std::move(rows));
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

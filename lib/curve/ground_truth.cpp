@@ -5,7 +5,8 @@
 
 #include <cmath>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 }
@@ -93,4 +94,5 @@ Eigen::VectorXd sample_laplacian(const Shape& shape, const TestFunction& f, cons
   return v;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

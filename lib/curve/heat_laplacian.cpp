@@ -12,7 +12,8 @@
 #include <numeric>
 #include <sstream>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 using detail::cyclic_distance;
 using detail::Elements;
@@ -273,4 +274,5 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
 }
 }  // namespace
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

@@ -11,7 +11,8 @@
 
 #include "png_decode.hpp"
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 
@@ -188,4 +189,5 @@ FilteredContours filter_contours(const ContourSet& contours, const ContourFilter
   return out;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

@@ -10,7 +10,8 @@
 #include <iomanip>
 #include <vector>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 void save_elements_npz(const ContourOperator& op, const std::string& path) {
   const auto n = static_cast<std::size_t>(op.rows());
@@ -50,4 +51,5 @@ std::vector<std::string> save_operator(const ContourOperator& op, const std::str
   return paths;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

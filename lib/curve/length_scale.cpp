@@ -8,7 +8,8 @@
 #include <cmath>
 #include <vector>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 constexpr double kFloorPixels = 4.0;
@@ -97,4 +98,5 @@ LengthScale length_scale(const DigitalSet& set, const ContourSet& contours, cons
   return out;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

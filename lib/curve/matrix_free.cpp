@@ -23,7 +23,8 @@
 #include <tuple>
 #include <type_traits>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 
@@ -803,22 +804,26 @@ std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian&
   return spectra;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap
 
 // --- Conjugate gradient on the matrix-free operator ------------------------------------------
 // Eigen's iterative solvers accept any matrix type that provides a product with a vector: the
 // wrapper below is (M - dt A) applied through MatrixFreeLaplacian (Eigen's "matrix-free solvers").
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 class HeatStepMatrix;
-}
+}  // namespace curve
+}  // namespace digilap
 
 namespace Eigen::internal {
 template <>
 struct traits<digilap::HeatStepMatrix> : public traits<Eigen::SparseMatrix<double>> {};
 }  // namespace Eigen::internal
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 class HeatStepMatrix : public Eigen::EigenBase<HeatStepMatrix> {
 public:
@@ -869,7 +874,8 @@ private:
   Eigen::VectorXd inverse_;
 };
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap
 
 namespace Eigen::internal {
 template <typename Rhs>
@@ -883,7 +889,8 @@ struct generic_product_impl<digilap::HeatStepMatrix, Rhs, SparseShape, DenseShap
 };
 }  // namespace Eigen::internal
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 Eigen::VectorXd heat_step_cg(const MatrixFreeLaplacian& op, const Eigen::VectorXd& u, double dt, double tolerance,
                              int* iterations) {
@@ -907,4 +914,5 @@ Eigen::VectorXd heat_step_cg(const MatrixFreeLaplacian& op, const Eigen::VectorX
   return next;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

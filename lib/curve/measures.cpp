@@ -5,7 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 double ContourMeasures::geodesic_distance(std::size_t i, std::size_t j) const {
   const double d = std::abs(S[static_cast<Eigen::Index>(j)] - S[static_cast<Eigen::Index>(i)]);
@@ -53,4 +54,5 @@ Measures measures(const ContourSet& contours, const LinelNormals& normals) {
   return out;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

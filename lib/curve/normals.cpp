@@ -10,7 +10,8 @@
 #include <vector>
 #include <sstream>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 
@@ -112,4 +113,5 @@ LinelNormals exact_normals(const Shape& shape, const ContourSet& contours, doubl
   return normals;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

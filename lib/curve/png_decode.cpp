@@ -26,7 +26,9 @@
 #pragma GCC diagnostic pop
 #endif
 
-namespace digilap::curve::detail {
+namespace digilap {
+inline namespace curve {
+namespace detail {
 
 namespace {
 
@@ -87,4 +89,6 @@ GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::stri
   return image;
 }
 
-}  // namespace digilap::curve::detail
+}  // namespace detail
+}  // namespace curve
+}  // namespace digilap

@@ -7,7 +7,9 @@
 #include <cstdint>
 #include <string>
 
-namespace digilap::curve::detail {
+namespace digilap {
+inline namespace curve {
+namespace detail {
 
 /// Throws digilap::Error unless 0 < width, height and width * height <= limits.max_pixels.
 void check_image_size(long long width, long long height, const std::string& name, const ImageLimits& limits);
@@ -15,4 +17,6 @@ void check_image_size(long long width, long long height, const std::string& name
 /// A PNG in memory as a grey image (luminance, transparency over white).
 GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::string& name, const ImageLimits& limits);
 
-}  // namespace digilap::curve::detail
+}  // namespace detail
+}  // namespace curve
+}  // namespace digilap

@@ -13,7 +13,8 @@
 #include <set>
 #include <sstream>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 
@@ -405,4 +406,5 @@ std::string shape_syntax() {
   return text;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

@@ -7,7 +7,8 @@
 #include <sstream>
 #include <string>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 namespace {
 Eigen::Vector2d centroid(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index b) {
@@ -54,4 +55,5 @@ Eigen::MatrixX2d smooth_positions(const ContourOperator& op, const ContourSmooth
   return p;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap

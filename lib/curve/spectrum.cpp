@@ -4,7 +4,8 @@
 
 #include <cmath>
 
-namespace digilap::curve {
+namespace digilap {
+inline namespace curve {
 
 double heat_kernel_eigenvalue(int m, double P, double t) {
   const double w = 2 * kPi * m / P, w2 = w * w;
@@ -12,4 +13,5 @@ double heat_kernel_eigenvalue(int m, double P, double t) {
   return -std::expm1(-w2 * t) / t;
 }
 
-}  // namespace digilap::curve
+}  // namespace curve
+}  // namespace digilap
