@@ -280,7 +280,8 @@ PYBIND11_MODULE(_digilap, m) {
   py::class_<Measures>(m, "Measures", "Lengths mu of linels and vertices, arclengths, and the length scale.")
       .def_readonly("length_scale", &Measures::length_scale)
       .def_readonly("normal_radius", &Measures::normal_radius)
-      .def_readonly("clamped_linels", &Measures::clamped_linels)
+      .def_readonly("clamped", &Measures::clamped, "Linels with <n, n_e> <= 0 (mu clamped to 0).")
+      .def_property_readonly("clamped_linels", [](const Measures& m) { return m.clamped; }, "Deprecated: clamped.")
       .def("total_length", &Measures::total_length);
   m.def("measures", &measures, py::arg("contours"), py::arg("normals"), Release(),
         "mu(l) = h <n, n_e> (clamped at 0), mu(v) the mean of its two linels, arclength S.");
@@ -405,12 +406,19 @@ PYBIND11_MODULE(_digilap, m) {
       .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
   m.def("smooth_function", py::overload_cast<const HeatOperator&, const Eigen::VectorXd&, double, int>(&smooth_function), py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
         "f after heat diffusion for a time tau (implicit Euler steps).");
-  m.def("smooth_positions", [](const ContourOperator& op, double tau, int steps, bool preserve_area) {
+  m.def("smooth_positions", [](const ContourOperator& op, double tau, int steps, bool preserve_size, py::object preserve_area) {
         ContourSmoothingOptions o;
-        o.tau = tau, o.steps = steps, o.preserve_area = preserve_area;
+        o.tau = tau, o.steps = steps, o.preserve_size = preserve_size;
+        if (!preserve_area.is_none()) {  // the earlier keyword, as in C++ (CHANGELOG)
+          if (PyErr_WarnEx(PyExc_DeprecationWarning, "smooth_positions: preserve_area is renamed preserve_size", 1) != 0)
+            throw py::error_already_set();
+          o.preserve_size = o.preserve_size && preserve_area.cast<bool>();
+        }
+        py::gil_scoped_release release;
         return smooth_positions(op, o);
       }, py::arg("op"), py::arg("tau") = ContourSmoothingOptions{}.tau, py::arg("steps") = ContourSmoothingOptions{}.steps,
-      py::arg("preserve_area") = true, Release(), "Contour fairing: the element positions after heat diffusion (N x 2).");
+      py::arg("preserve_size") = ContourSmoothingOptions{}.preserve_size, py::arg("preserve_area") = py::none(),
+      "Contour fairing: the element positions after heat diffusion (N x 2), rescaled to their enclosed area unless preserve_size=False.");
   m.def("convergence_sweep", [](const Shape& shape, const std::string& function, std::vector<double> steps,
                                 std::vector<std::string> operators) {
         ConvergenceOptions o;

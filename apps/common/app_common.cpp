@@ -186,9 +186,9 @@ FrontEnd run_front_end(const FrontEndOptions& o, Progress& progress) {
   if (!progress.quiet())
     std::fprintf(stderr, "length scale l = %.6g%s, II radius R = %.6g\n", fe.measures.length_scale,
                  o.length_scale > 0 ? " (given)" : " (measured)", fe.measures.normal_radius);
-  if (fe.measures.clamped_linels > 0 && !progress.quiet())
+  if (fe.measures.clamped > 0 && !progress.quiet())
     std::fprintf(stderr, "warning: %zu linels got mu = 0 (normal orthogonal to the linel); k_R may be too large\n",
-                 fe.measures.clamped_linels);
+                 fe.measures.clamped);
   return fe;
 }
 

@@ -59,16 +59,29 @@ void write_market(const SparseMatrix& m, const std::string& path) {
   if (!out) throw Error("error while writing '" + path + "' (disk full?)");
 }
 
+// A matrix built by insert() is in uncompressed storage, with unused slots between its rows:
+// written as it is, the file held those slots as entries (and more than the header declared).
+const SparseMatrix& compressed(const SparseMatrix& m, SparseMatrix& copy) {
+  if (m.isCompressed()) return m;
+  copy = m;
+  copy.makeCompressed();
+  return copy;
+}
+
 }  // namespace
 
-void save_matrix_market(const SparseMatrix& matrix, const std::string& path) { write_market(matrix, path); }
+void save_matrix_market(const SparseMatrix& matrix, const std::string& path) {
+  SparseMatrix copy;
+  write_market(compressed(matrix, copy), path);
+}
 
-void save_npz(const SparseMatrix& matrix, const std::string& path) {
+void save_npz(const SparseMatrix& given, const std::string& path) {
+  SparseMatrix copy;
+  const SparseMatrix& matrix = compressed(given, copy);
   // scipy.sparse.save_npz's layout for a csr_matrix: data, indices, indptr, format, shape.
   static const char format[3] = {'c', 's', 'r'};
   const std::int64_t shape[2] = {matrix.rows(), matrix.cols()};
   const auto nnz = static_cast<std::size_t>(matrix.nonZeros()), rows = static_cast<std::size_t>(matrix.rows());
-  if (!matrix.isCompressed()) throw Error("save_npz: the matrix must be in compressed storage");
   detail::write_npz(path, {{"data", "<f8", {nnz}, matrix.valuePtr(), nnz * sizeof(double)},
                            {"indices", "<i4", {nnz}, matrix.innerIndexPtr(), nnz * sizeof(int)},
                            {"indptr", "<i4", {rows + 1}, matrix.outerIndexPtr(), (rows + 1) * sizeof(int)},

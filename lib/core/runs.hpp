@@ -30,7 +30,7 @@ inline bool in_runs(const Run* b, const Run* e, std::int32_t i) {
 /// The number of pixels or voxels the runs hold.
 inline std::int64_t run_total(const std::vector<Run>& runs) {
   std::int64_t n = 0;
-  for (const Run& r : runs) n += r.end - r.begin;
+  for (const Run& r : runs) n += std::int64_t(r.end) - r.begin;  // a run may span 2^31 + 1 indices
   return n;
 }
 

@@ -43,4 +43,17 @@ Eigen::VectorXd smooth_function(const HeatOperator& op, const Eigen::VectorXd& f
   return HeatFlow(op, tau / steps, TimeScheme::ImplicitEuler).advance(f, steps);
 }
 
+double roundness(const Eigen::Ref<const Eigen::MatrixXd>& p, const Eigen::Ref<const Eigen::VectorXd>& w) {
+  if (p.rows() < 3 || w.size() != p.rows())
+    throw Error("roundness: needs at least 3 points and one weight each, got " + std::to_string(p.rows()) + " points and " +
+                std::to_string(w.size()) + " weights");
+  if (!(w.minCoeff() >= 0) || !std::isfinite(w.sum()) || !(w.sum() > 0))
+    throw Error("roundness: the weights must be >= 0 and finite with a positive sum");
+  const double total = w.sum();
+  const Eigen::RowVectorXd c = (w.transpose() * p) / total;
+  const Eigen::VectorXd r = (p.rowwise() - c).rowwise().norm();
+  const double mean = w.dot(r) / total;
+  return std::sqrt(w.dot((r.array() - mean).square().matrix()) / total) / mean;
+}
+
 }  // namespace digilap

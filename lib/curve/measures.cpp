@@ -38,7 +38,7 @@ Measures measures(const ContourSet& contours, const LinelNormals& normals) {
     m.linel_mu.resize(n);
     for (Eigen::Index i = 0; i < n; ++i) {
       const double dot = normals[c].row(i).dot(linel_normal(contour.steps[i]).transpose());
-      if (dot <= 0) ++out.clamped_linels;
+      if (dot <= 0) ++out.clamped;
       m.linel_mu[i] = contours.h * std::max(0.0, dot);
     }
     m.vertex_mu.resize(n);
@@ -51,6 +51,11 @@ Measures measures(const ContourSet& contours, const LinelNormals& normals) {
     }
     m.length = s;
   }
+  // The deprecated name keeps its value for one release (CHANGELOG).
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  out.clamped_linels = out.clamped;
+#pragma GCC diagnostic pop
   return out;
 }
 

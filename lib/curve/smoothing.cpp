@@ -31,18 +31,18 @@ Eigen::VectorXd enclosed_areas(const ContourOperator& op, const Eigen::MatrixX2d
 }
 
 double roundness(const Eigen::MatrixX2d& p, Eigen::Index a, Eigen::Index b) {
-  if (b - a < 3) throw Error("roundness: a contour needs at least 3 points");
-  const Eigen::Vector2d c = centroid(p, a, b);
-  Eigen::VectorXd r(b - a);
-  for (Eigen::Index i = a; i < b; ++i) r[i - a] = (p.row(i).transpose() - c).norm();
-  const double mean = r.mean();
-  return std::sqrt((r.array() - mean).square().mean()) / mean;
+  if (a < 0 || b > p.rows() || b - a < 3) throw Error("roundness: a contour needs at least 3 points");
+  return digilap::roundness(p.middleRows(a, b - a), Eigen::VectorXd::Ones(b - a));
 }
 
 Eigen::MatrixX2d smooth_positions(const ContourOperator& op, const ContourSmoothingOptions& o) {
   // x and y as two functions, through the core's smoothing (the same flow, step for step).
   Eigen::MatrixX2d p = smooth(op, Eigen::MatrixXd(op.positions), o.tau, o.steps);
-  if (o.preserve_area) {
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
+  const bool preserve_size = o.preserve_size && o.preserve_area;  // the earlier name still switches it off
+#pragma GCC diagnostic pop
+  if (preserve_size) {
     const Eigen::VectorXd before = enclosed_areas(op, op.positions), after = enclosed_areas(op, p);
     for (Eigen::Index c = 0; c < before.size(); ++c) {
       if (!(after[c] * before[c] > 0)) continue;  // collapsed or flipped: nothing sensible to rescale

@@ -26,8 +26,8 @@ Moments ball_moments(const VoxelSet& set, std::int64_t X, std::int64_t Y, std::i
       const std::int64_t mx = floor_sqrt(r2 - static_cast<double>(dz2 + (2 * j - Y) * (2 * j - Y)));
       if (mx < 0) continue;
       const std::int64_t lo = ceil_half(X - mx), hi = floor_half(X + mx);
-      const Run* b = set.row_begin(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
-      const Run* e = set.row_end(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
+      const Run* b = set.row_runs_begin(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
+      const Run* e = set.row_runs_end(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
       const Run* r = std::upper_bound(b, e, lo, [](std::int64_t v, const Run& run) { return v < run.end; });
       const std::int64_t dj = j - j0, dk = k - k0;
       for (; r != e && r->begin <= hi; ++r) {

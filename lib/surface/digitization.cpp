@@ -30,7 +30,7 @@ void check_rows(std::int64_t nj, std::int64_t nk) {
 VoxelSet::VoxelSet(double h) : h_(h) { require_grid_step("voxel set: grid step h", h); }
 
 bool VoxelSet::contains(std::int32_t i, std::int32_t j, std::int32_t k) const {
-  return digilap::detail::in_runs(row_begin(j, k), row_end(j, k), i);
+  return digilap::detail::in_runs(row_runs_begin(j, k), row_runs_end(j, k), i);
 }
 
 std::int64_t VoxelSet::voxel_count() const { return digilap::detail::run_total(runs_); }

@@ -34,12 +34,4 @@ Eigen::MatrixX3d smooth_positions(const SurfaceOperator& op, const SurfaceSmooth
   return p;
 }
 
-double roundness(const Eigen::MatrixX3d& p, const Eigen::VectorXd& mass) {
-  if (p.rows() < 4 || mass.size() != p.rows()) throw Error("roundness: needs at least 4 points and one mass each");
-  const Eigen::RowVector3d c = (mass.transpose() * p) / mass.sum();
-  const Eigen::VectorXd r = (p.rowwise() - c).rowwise().norm();
-  const double mean = mass.dot(r) / mass.sum();
-  return std::sqrt(mass.dot((r.array() - mean).square().matrix()) / mass.sum()) / mean;
-}
-
 }  // namespace digilap::surface

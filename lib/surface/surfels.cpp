@@ -96,8 +96,8 @@ SurfelSet extract_surfels(const VoxelSet& set) {
 #pragma omp parallel for schedule(dynamic, 64)
   for (std::int64_t r = 0; r < rows; ++r) {
     const std::int32_t j = set.j_begin() + static_cast<std::int32_t>(r % nj), k = set.k_begin() + static_cast<std::int32_t>(r / nj);
-    const Run* b = set.row_begin(j, k);
-    const Run* e = set.row_end(j, k);
+    const Run* b = set.row_runs_begin(j, k);
+    const Run* e = set.row_runs_end(j, k);
     if (b == e) continue;
     std::vector<Surfel>& found = per_row[static_cast<std::size_t>(r)];
     for (const Run* run = b; run != e; ++run) {
@@ -107,7 +107,7 @@ SurfelSet extract_surfels(const VoxelSet& set) {
     const std::int32_t neighbour[4][2] = {{j - 1, k}, {j + 1, k}, {j, k - 1}, {j, k + 1}};
     const std::int8_t axis[4] = {1, 1, 2, 2}, sign[4] = {-1, 1, -1, 1};
     for (int n = 0; n < 4; ++n)
-      for_each_uncovered(b, e, set.row_begin(neighbour[n][0], neighbour[n][1]), set.row_end(neighbour[n][0], neighbour[n][1]),
+      for_each_uncovered(b, e, set.row_runs_begin(neighbour[n][0], neighbour[n][1]), set.row_runs_end(neighbour[n][0], neighbour[n][1]),
                          [&](std::int32_t i) { found.push_back({{i, j, k}, axis[n], sign[n]}); });
   }
   std::size_t total = 0;

@@ -24,29 +24,6 @@ ContourOperator operator_of(const Shape& shape, double h, const HeatLaplacianOpt
 }
 }  // namespace
 
-TEST(Spectrum, CircleEigenvaluesMatchTheHeatKernelFormula) {
-  Circle circle;
-  const ContourOperator op = operator_of(circle, 0.01);
-  SpectrumOptions so;
-  so.count = 11;
-  const Spectrum s = smallest_eigenpairs(op, so);
-  ASSERT_EQ(s.eigenvalues.size(), 11);
-  const double P = op.contour_length[0];
-  // m = 0 (the constants), then pairs m = 1..5: within 2% of (1 - exp(-omega^2 t)) / t with the
-  // estimated length P (SPEC §5: the spectrum's accuracy is that of P).
-  EXPECT_LE(std::abs(s.eigenvalues[0]), 1e-8 * s.eigenvalues[1]);
-  for (int m = 1; m <= 5; ++m) {
-    const double expected = heat_kernel_eigenvalue(m, P, op.t);
-    for (int k : {2 * m - 1, 2 * m}) EXPECT_NEAR(s.eigenvalues[k], expected, 0.02 * expected) << "m = " << m;
-    const double split = std::abs(s.eigenvalues[2 * m] - s.eigenvalues[2 * m - 1]) / expected;
-    // Odd m: the square symmetry of the grid makes the pair exactly degenerate.
-    if (m % 2 == 1) EXPECT_LE(split, 1e-8) << "m = " << m;
-    RecordProperty("split_m" + std::to_string(m), std::to_string(split));
-    std::printf("circle h = 0.01: m = %d, lambda = %.6f, %.6f (formula %.6f), relative split %.2e\n", m,
-                s.eigenvalues[2 * m - 1], s.eigenvalues[2 * m], expected, split);
-  }
-}
-
 TEST(Spectrum, EigenvectorsAreMOrthonormalAndSolveTheProblem) {
   const ContourOperator op = operator_of(Flower(), 0.02);
   const Spectrum s = smallest_eigenpairs(op);

@@ -227,6 +227,18 @@ def test_polar_curve_from_python_callables():
         digilap.PolarCurve(lambda t: -1.0, lambda t: 0.0, lambda t: 0.0)
 
 
+def test_measures_count_clamped_elements_under_both_names():
+    # A box with a one-pixel spur: the spur's tip linel has an II normal orthogonal to it.
+    mask = np.zeros((40, 60), np.uint8)
+    mask[5:35, 10:50] = 1
+    mask[18, 50:58] = 1
+    digital = digilap.from_mask(mask, 0.05)
+    contours = digilap.track_contours(digital)
+    mu = digilap.measures(contours, digilap.ii_normals(digital, contours))
+    assert mu.clamped == 1
+    assert mu.clamped_linels == mu.clamped  # the earlier name (deprecated, issue 21)
+
+
 def test_downstream_functions_and_options():
     op = flower_operator(0.05, distance="euclidean", placement="linels")
     assert op.rows() == op.mass.size
@@ -239,6 +251,11 @@ def test_downstream_functions_and_options():
     assert np.abs(smooth).max() < np.abs(noisy).max()
     faired = digilap.smooth_positions(plain, tau=1e-3)
     assert faired.shape == (plain.rows(), 2)
+    # The names shared with surfaces (issue 21); the earlier keyword warns and still works.
+    shrunk = digilap.smooth_positions(plain, tau=1e-3, preserve_size=False)
+    with pytest.warns(DeprecationWarning, match="preserve_size"):
+        assert np.array_equal(digilap.smooth_positions(plain, tau=1e-3, preserve_area=False), shrunk)
+    assert not np.array_equal(shrunk, faired)
     flow = digilap.HeatFlow(plain, 0.01)
     u = flow.advance(noisy, 5)
     assert abs(plain.mass @ u - plain.mass @ noisy) < 1e-12 * plain.mass.sum()

@@ -2,14 +2,14 @@
 // bit for bit whatever the thread count, on one surface, on several, and with zero-area surfels
 // of a real label; and the spectrum from products equals the assembled operator's.
 #include "digilap/core/error.hpp"
-#include "digilap/curve/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
-#include "digilap/curve/smoothing.hpp"
+#include "digilap/core/smoothing.hpp"
 #include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include "on_threads.hpp"
+#include "support.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -19,47 +19,9 @@
 
 using namespace digilap;
 using namespace digilap::surface;
+using namespace digilap::surface::test_support;
 
 namespace {
-
-struct Pipeline {
-  SurfelSet surfels;
-  SurfelMeasures mu;
-};
-
-Pipeline run(const VoxelSet& set) {
-  Pipeline p;
-  p.surfels = filter_surfels(set, extract_surfels(set), SurfelFilter{8, false}).surfels;
-  p.mu = measures(p.surfels, ii_normals(set, p.surfels));
-  return p;
-}
-
-// A ball of radius 9 voxels and, 4 voxels away (closer than the cut), a ball of radius 5: two
-// surfaces, two heat times.
-VoxelSet two_balls() {
-  std::vector<Eigen::Vector3i> v;
-  for (int k = 0; k < 40; ++k)
-    for (int j = 0; j < 24; ++j)
-      for (int i = 0; i < 24; ++i) {
-        const double a = (i - 11.7) * (i - 11.7) + (j - 11.4) * (j - 11.4) + (k - 10.2) * (k - 10.2);
-        const double b = (i - 11.2) * (i - 11.2) + (j - 11.9) * (j - 11.9) + (k - 28.6) * (k - 28.6);
-        if (a < 81 || b < 25) v.emplace_back(i, j, k);
-      }
-  return VoxelSet::from_voxels(1.0, v);
-}
-
-// A real structure with zero-area surfels: label 5 of the 2 mm JHU atlas (committed in tests/data).
-VoxelSet real_label() {
-  VolumeOptions o;
-  o.label = 5;
-  return read_volume(DIGILAP_SOURCE_DATA "/JHU-WhiteMatter-labels-2mm.nii.gz", o);
-}
-
-Eigen::MatrixXd block(Eigen::Index n, Eigen::Index b) {
-  Eigen::MatrixXd x(n, b);
-  for (Eigen::Index k = 0; k < x.size(); ++k) x.data()[k] = std::sin(0.37 * static_cast<double>(k) + 0.1);
-  return x;
-}
 
 // |Y - Z| relative to |A| |X|: the scale of the rounding in either product.
 double product_error(const SparseMatrix& A, const Eigen::MatrixXd& x, const Eigen::MatrixXd& y) {
@@ -76,7 +38,7 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
   // (sum_j a_ij (x_j - x_i) against sum_j a_ij x_j - x_i sum_j a_ij): a few ulps of |A| |x|
   // (the issue asks 1e-12).
   for (const VoxelSet& set : {two_balls(), real_label()}) {
-    const Pipeline p = run(set);
+    const Pipeline p = filtered(set);
     const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
     const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
     ASSERT_EQ(free.rows(), op.rows());
@@ -95,7 +57,7 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
 }
 
 TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
-  const Pipeline p = run(two_balls());
+  const Pipeline p = filtered(two_balls());
   const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
   const Eigen::MatrixXd x = block(free.rows(), 5);
   Eigen::MatrixXd one, two;
@@ -112,7 +74,7 @@ TEST(MatrixFreeSurface, SpectrumEqualsTheAssembledOperators) {
   // operator's scale, and an eigenvalue's error is the square of that over the gap.
   // Eigenvectors of simple eigenvalues within 1e-6 (the residual over the gap).
   for (const VoxelSet& set : {two_balls(), real_label()}) {
-    const Pipeline p = run(set);
+    const Pipeline p = filtered(set);
     const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
     const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
     SpectrumOptions o;
@@ -130,11 +92,11 @@ TEST(MatrixFreeSurface, SpectrumEqualsTheAssembledOperators) {
                   1e-6 * stored.eigenvectors.col(k).cwiseAbs().maxCoeff()) << k;
     }
   }
-  EXPECT_GT((run(real_label()).mu.mu.array() == 0).count(), 0);  // the case this test is for
+  EXPECT_GT((filtered(real_label()).mu.mu.array() == 0).count(), 0);  // the case this test is for
 }
 
 TEST(MatrixFreeSurface, BadRequestsAreRefused) {
-  const Pipeline p = run(two_balls());
+  const Pipeline p = filtered(two_balls());
   const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
   SpectrumOptions o;
   o.count = 0;
@@ -159,7 +121,7 @@ TEST(MatrixFreeSurface, ZeroAreasCuttingASurfaceGiveOnePiecePerSide) {
     for (int j = 0; j < 9; ++j)
       for (int i = 0; i < 9; ++i)
         if ((i - 4.1) * (i - 4.1) + (j - 3.9) * (j - 3.9) < 12) v.emplace_back(i, j, k);
-  Pipeline p = run(VoxelSet::from_voxels(1.0, v));
+  Pipeline p = filtered(VoxelSet::from_voxels(1.0, v));
   const double cut = heat_laplacian(p.surfels, p.mu).cut;
   const Eigen::MatrixX3d centres = p.surfels.centres();
   Eigen::Index zeroed = 0;
@@ -175,39 +137,4 @@ TEST(MatrixFreeSurface, ZeroAreasCuttingASurfaceGiveOnePiecePerSide) {
   EXPECT_GT(products.eigenvalues[2], 1e-6 * stored.eigenvalues[5]);
   EXPECT_EQ(products.massless, zeroed);
   for (Eigen::Index k = 0; k < 6; ++k) EXPECT_NEAR(products.eigenvalues[k], stored.eigenvalues[k], 1e-9 * stored.eigenvalues[5]) << k;
-}
-
-// Heat flow without storing L (issue 23): 10 Crank-Nicolson steps of dt = t on two surfaces
-// and on a real label with zero-area surfels give the assembled HeatFlow's state (also by CG,
-// and with the same treatment of zero areas) to 1e-9 of its size: both solve each step to 1e-12
-// relative residual, and the products agree to 1e-14 (a contraction adds at most the steps'
-// errors). Each surface's heat sum mu u is kept to 1e-12, the bits are the same for 1 and 2
-// threads, and smoothing equals the assembled smooth() to the same 1e-9.
-TEST(MatrixFreeSurface, HeatFlowEqualsTheAssembledFlow) {
-  for (const VoxelSet& set : {two_balls(), real_label()}) {
-    const Pipeline p = run(set);
-    const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
-    const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
-    Eigen::VectorXd u0(op.rows());
-    for (Eigen::Index i = 0; i < u0.size(); ++i) u0[i] = std::exp(-0.05 * (op.positions.row(i) - op.positions.row(0)).squaredNorm());
-    const double dt = op.t;
-    const Eigen::VectorXd reference = HeatFlow(op, dt).advance(u0, 10);
-    const MatrixFreeHeatFlow flow(free, dt);
-    const Eigen::VectorXd u = flow.advance(u0, 10);
-    EXPECT_LT((u - reference).cwiseAbs().maxCoeff(), 1e-9 * reference.cwiseAbs().maxCoeff());
-    EXPECT_GT(flow.last_iterations(), 0);
-    for (std::size_t s = 0; s < op.parts(); ++s) {
-      const Eigen::Index first = op.row_offset[s], count = op.row_offset[s + 1] - first;
-      const double before = op.mass.segment(first, count).dot(u0.segment(first, count));
-      EXPECT_NEAR(op.mass.segment(first, count).dot(u.segment(first, count)), before, 1e-12 * std::abs(before)) << "surface " << s;
-    }
-    EXPECT_EQ(on_threads(1, [&] { return flow.advance(u0, 3); }), on_threads(2, [&] { return flow.advance(u0, 3); }));
-    const Eigen::MatrixXd f = block(op.rows(), 2);
-    const Eigen::MatrixXd smoothed = smooth(free, f, 3 * op.t, 3), assembled = digilap::smooth(op, f, 3 * op.t, 3);
-    EXPECT_LT((smoothed - assembled).cwiseAbs().maxCoeff(), 1e-9 * assembled.cwiseAbs().maxCoeff());
-  }
-  const MatrixFreeSurfaceOperator free(run(two_balls()).surfels, run(two_balls()).mu);
-  EXPECT_THROW(MatrixFreeHeatFlow(free, 0.0), Error);
-  EXPECT_THROW(MatrixFreeHeatFlow(free, 1.0).step(Eigen::VectorXd::Zero(3)), Error);
-  EXPECT_THROW(smooth(free, Eigen::MatrixXd::Zero(free.rows(), 1), -1.0), Error);
 }

@@ -7,8 +7,9 @@
 
 namespace digilap {
 
-/// Pixel and voxel indices lie in [-kMaxPixelIndex, kMaxPixelIndex]: the boundaries need
-/// room for the neighbours of every pixel, and differences of indices must fit in 32 bits.
+/// Pixel and voxel indices lie in [-kMaxPixelIndex, kMaxPixelIndex]: every index, its
+/// neighbours and a run's end fit in 32 bits with room to spare. Lengths and differences of
+/// indices (up to 2^31 + 1) need 64 bits: the library computes them so.
 constexpr std::int32_t kMaxPixelIndex = 1 << 30;
 
 /// Pixels (voxels) begin, begin + 1, ..., end - 1 of one row (half-open).

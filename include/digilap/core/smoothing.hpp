@@ -23,4 +23,11 @@ Eigen::MatrixXd smooth(const HeatOperator& op, const Eigen::MatrixXd& f, double 
 /// and finite, steps < 1, a size mismatch, or as HeatFlow(op, dt).
 Eigen::VectorXd smooth_function(const HeatOperator& op, const Eigen::VectorXd& f, double tau, int steps = 1);
 
+/// Roundness of weighted points in any dimension (rows of `positions`: a contour's elements or a
+/// surface's surfels, weighted by their masses): the weighted standard deviation of the distance
+/// to the weighted centroid divided by its weighted mean; 0 for points on a circle or a sphere.
+/// Throws digilap::Error for fewer than 3 points, a weight per point missing, or weights not
+/// >= 0 and finite with a positive sum.
+double roundness(const Eigen::Ref<const Eigen::MatrixXd>& positions, const Eigen::Ref<const Eigen::VectorXd>& weights);
+
 }  // namespace digilap

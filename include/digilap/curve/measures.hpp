@@ -23,11 +23,15 @@ struct ContourMeasures {
   double geodesic_distance(std::size_t i, std::size_t j) const;
 };
 
+// The deprecated field's copies and moves are the struct's own: not a use by the caller.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 struct Measures {
   std::vector<ContourMeasures> contours;
   /// Linels where <n, n_e> <= 0 (normal flipped or orthogonal to the linel): mu clamped to 0.
   /// Should be 0; a positive count says k_R is too large for the shape's curvature (SPEC §2).
-  std::size_t clamped_linels = 0;
+  std::size_t clamped = 0;
+  [[deprecated("renamed clamped, as in surface::SurfelMeasures")]] std::size_t clamped_linels = 0;
   /// The length scale l and II radius R of the normals (length_scale.hpp): the operator's
   /// default heat time is c_t h^(2/3) l^(4/3).
   double length_scale = 0;
@@ -37,6 +41,7 @@ struct Measures {
   /// Total estimated length of all contours.
   double total_length() const;
 };
+#pragma GCC diagnostic pop
 
 /// Linel and vertex measures from the linel normals (II estimates or exact ones).
 /// Throws digilap::Error when the normals do not match the contours in size.

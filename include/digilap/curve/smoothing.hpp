@@ -17,13 +17,19 @@
 namespace digilap {
 inline namespace curve {
 
+// The deprecated field's copies and moves are the struct's own: not a use by the caller.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wdeprecated-declarations"
 struct ContourSmoothingOptions {
   double tau = 1e-2;  ///< diffusion time (the stopping parameter, see above)
   int steps = 4;      ///< implicit Euler steps
   /// Rescale each contour about its centroid after smoothing so that it encloses the area it
   /// enclosed before (diffusion shrinks curves: a circle of radius r by exp(-tau / r^2)).
-  bool preserve_area = true;
+  bool preserve_size = true;
+  /// The earlier name: the rescaling runs when both are true.
+  [[deprecated("renamed preserve_size, as in surface::SurfaceSmoothingOptions")]] bool preserve_area = true;
 };
+#pragma GCC diagnostic pop
 
 /// Fairing of the contours: the element positions (x and y as functions) diffused by the
 /// operator (a linearized curve-shortening flow). Returns the new positions, row by row.
@@ -32,8 +38,9 @@ Eigen::MatrixX2d smooth_positions(const ContourOperator& op, const ContourSmooth
 /// Signed area enclosed by each contour's polygon of element positions.
 Eigen::VectorXd enclosed_areas(const ContourOperator& op, const Eigen::MatrixX2d& positions);
 
-/// Roundness of one contour: standard deviation of the distance to the centroid divided by
-/// its mean (0 for a perfect circle).
+/// Roundness of one contour, its points weighted equally: the core's roundness(positions,
+/// weights) (core/smoothing.hpp) of rows [first_row, end_row).
+[[deprecated("use roundness(positions.middleRows(first, n), op.mass.segment(first, n)) from core/smoothing.hpp")]]
 double roundness(const Eigen::MatrixX2d& positions, Eigen::Index first_row, Eigen::Index end_row);
 
 }  // namespace curve

@@ -25,9 +25,14 @@ public:
   std::int32_t j_end() const { return j0_ + nj_; }
   std::int32_t k_begin() const { return k0_; }
   std::int32_t k_end() const { return k0_ + nk_; }
-  /// The runs of row (j, k), sorted and disjoint (an empty range outside the rows).
-  const Run* row_begin(std::int32_t j, std::int32_t k) const { return runs_.data() + offset(j, k, 0); }
-  const Run* row_end(std::int32_t j, std::int32_t k) const { return runs_.data() + offset(j, k, 1); }
+  /// The runs of row (j, k), sorted and disjoint (an empty range outside the rows): the names of
+  /// DigitalSet::row_runs_begin(j), whose row_begin() is a row index.
+  const Run* row_runs_begin(std::int32_t j, std::int32_t k) const { return runs_.data() + offset(j, k, 0); }
+  const Run* row_runs_end(std::int32_t j, std::int32_t k) const { return runs_.data() + offset(j, k, 1); }
+  [[deprecated("renamed row_runs_begin(j, k), as in 2D (row_begin() is a row index there)")]]
+  const Run* row_begin(std::int32_t j, std::int32_t k) const { return row_runs_begin(j, k); }
+  [[deprecated("renamed row_runs_end(j, k), as in 2D")]]
+  const Run* row_end(std::int32_t j, std::int32_t k) const { return row_runs_end(j, k); }
   bool contains(std::int32_t i, std::int32_t j, std::int32_t k) const;
   std::int64_t voxel_count() const;
   std::size_t memory_bytes() const;

@@ -25,8 +25,7 @@ struct SurfaceSmoothingOptions {
 /// steps < 1, or a mass that is not > 0.
 Eigen::MatrixX3d smooth_positions(const SurfaceOperator& op, const SurfaceSmoothingOptions& options = {});
 
-/// Roundness of a set of points: the area-weighted standard deviation of the distance to their
-/// area-weighted centroid divided by its mean (0 for a perfect sphere).
-double roundness(const Eigen::MatrixX3d& positions, const Eigen::VectorXd& mass);
+/// Roundness of a set of points weighted by their areas: the core's (core/smoothing.hpp).
+using digilap::roundness;
 
 }  // namespace digilap::surface

@@ -1,0 +1,259 @@
+// surface/heat_laplacian.hpp: the surface operator against SPEC §7 (the x^2 error of the
+// reference implementation, convergence, the matrix by brute force), thread independence, its
+// spectrum and heat flow on the sphere, and connected surfaces as separate parts.
+#include "digilap/surface/heat_laplacian.hpp"
+#include "on_threads.hpp"
+#include "support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <omp.h>
+#include <cstring>
+
+using namespace digilap;
+using namespace digilap::surface;
+using namespace digilap::surface::test_support;
+
+// The operator's x^2 error on the unit sphere equals the independent NumPy implementation of
+// SPEC §7 at the same h (same definitions: closest-point sampling, k = 6, t = 0.03 h^(2/3), II
+// normals k_R = 1): 27.8%, 18.8%, 12.4% at h = 0.1, 0.07, 0.05 (issue 13). The tolerance, 0.1
+// point, is the rounding of the quoted figures.
+TEST(Surface, SphereErrorEqualsTheReferenceImplementation) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const std::vector<std::pair<double, double>> reference = {{0.1, 27.8}, {0.07, 18.8}, {0.05, 12.4}};
+  for (const auto& [h, percent] : reference) {
+    const Pipeline p = run(sphere, h);
+    EXPECT_NEAR(100 * x2_error(sphere, p.op), percent, 0.1) << "h = " << h;
+  }
+  const Pipeline p = run(sphere, 0.025);
+  EXPECT_EQ(p.op.rows(), 30150);  // DGtal's and the reference's N at h = 0.025
+  EXPECT_NEAR(p.mu.total_area(), 4 * kPi, 2e-3 * 4 * kPi);  // sum mu -> area (6e-4 measured)
+}
+
+// Ellipsoid and torus: the error falls with h (slope ~1 in the reference: 29% -> 3.8%, 4.4%).
+TEST(Surface, EllipsoidAndTorusConverge) {
+  for (const char* name : {"ellipsoid", "torus"}) {
+    const auto s = make_surface(name);
+    s->set_pose(kCentre, Eigen::Matrix3d::Identity());
+    const double coarse = x2_error(*s, run(*s, 0.1).op), fine = x2_error(*s, run(*s, 0.035).op);
+    const double slope = std::log(coarse / fine) / std::log(0.1 / 0.035);
+    EXPECT_GT(slope, 0.8) << name << ": " << coarse << " -> " << fine;
+    EXPECT_LT(fine, 0.12) << name;
+  }
+}
+
+// Structure on every reference surface: rows sum to 0, off-diagonals >= 0, A symmetric bit for
+// bit, -A positive semidefinite, and equal to SPEC §7 evaluated over all pairs.
+TEST(Surface, OperatorStructureAndBruteForce) {
+  for (const char* name : {"sphere", "ellipsoid", "torus"}) {
+    const auto s = posed(make_surface(name));
+    const Pipeline p = run(*s, 0.15);
+    const SurfaceOperator& op = p.op;
+    const Eigen::Index n = op.rows();
+    const Eigen::MatrixXd L(op.L), A(op.A);
+    const double t = op.t, cut = 6 * std::sqrt(t);
+    Eigen::MatrixXd brute = Eigen::MatrixXd::Zero(n, n);
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const double d2 = (op.positions.row(i) - op.positions.row(j)).squaredNorm();
+        if (i != j && d2 <= cut * cut) brute(i, j) = std::exp(-d2 / (4 * t)) * op.mass[j] / (4 * kPi * t * t);
+      }
+    brute.diagonal() = -brute.rowwise().sum();
+    EXPECT_LE((L - brute).cwiseAbs().maxCoeff(), 1e-12 * L.cwiseAbs().maxCoeff()) << name;
+    EXPECT_EQ((A - A.transpose()).cwiseAbs().maxCoeff(), 0.0) << name;
+    for (Eigen::Index i = 0; i < n; ++i) EXPECT_LE(std::abs(L.row(i).sum()), 1e-12 * std::abs(L(i, i))) << name;
+    EXPECT_GE((L - Eigen::MatrixXd(L.diagonal().asDiagonal())).minCoeff(), 0.0) << name;
+    const Eigen::VectorXd eig = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(-A).eigenvalues();
+    EXPECT_GE(eig.minCoeff(), -1e-10 * eig.maxCoeff()) << name;
+  }
+}
+
+TEST(Surface, BitwiseIdenticalForOneAndTwoThreads) {
+  const auto s = posed(make_surface("torus"));
+  const int threads = omp_get_max_threads();
+  omp_set_num_threads(1);
+  const Pipeline one = run(*s, 0.05);
+  omp_set_num_threads(2);
+  const Pipeline two = run(*s, 0.05);
+  omp_set_num_threads(threads);
+  ASSERT_EQ(one.op.L.nonZeros(), two.op.L.nonZeros());
+  EXPECT_EQ(std::memcmp(one.mu.mu.data(), two.mu.mu.data(), sizeof(double) * one.mu.mu.size()), 0);
+  EXPECT_EQ(std::memcmp(one.op.L.valuePtr(), two.op.L.valuePtr(), sizeof(double) * one.op.L.nonZeros()), 0);
+  EXPECT_EQ(std::memcmp(one.op.L.innerIndexPtr(), two.op.L.innerIndexPtr(), sizeof(int) * one.op.L.nonZeros()), 0);
+  // The spectrum by LOBPCG on products too (its block products and algebra run in fixed chunks),
+  // on the sphere (the torus at h = 0.05 has surfels of zero area: M is not definite).
+  const Pipeline sphere = run(Sphere(), 0.1, true, 0.1);
+  SpectrumOptions o;
+  o.count = 8, o.method = SpectrumMethod::Products;
+  omp_set_num_threads(1);
+  const Spectrum s1 = smallest_eigenpairs(sphere.op.A, sphere.op.mass, o);
+  omp_set_num_threads(2);
+  const Spectrum s2 = smallest_eigenpairs(sphere.op.A, sphere.op.mass, o);
+  omp_set_num_threads(threads);
+  EXPECT_EQ(std::memcmp(s1.eigenvalues.data(), s2.eigenvalues.data(), sizeof(double) * 8), 0);
+  EXPECT_EQ(std::memcmp(s1.eigenvectors.data(), s2.eigenvectors.data(), sizeof(double) * s1.eigenvectors.size()), 0);
+}
+
+// The sphere's spectrum through the 2D solvers (A, mass), and its heat flow. Reference
+// (issue 13): at h = 0.05, exact normals, t = 0.1 h^(2/3), l = 1..3 raw within 7.3% of l(l+1),
+// within 0.8% after lambda -> -ln(1 - lambda t) / t. Here at h = 0.1 (the fine step is the next
+// test), where we measure raw 12.1% and corrected 1.3%: asserted within 15% and 2%, the
+// 3 + 5 + 7 copies within 2% of each other. Both solvers (the factorization and LOBPCG on
+// products, the surfaces' method) give the same pairs.
+TEST(Surface, SphereSpectrumAndHeatFlow) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const Pipeline p = run(sphere, 0.1, true, 0.1);
+  SpectrumOptions factorized, products;
+  factorized.count = products.count = 16;
+  factorized.method = SpectrumMethod::Factorization, products.method = SpectrumMethod::Products;
+  const Spectrum s = smallest_eigenpairs(p.op.A, p.op.mass, factorized);
+  const Eigen::VectorXd mu = laplace_beltrami_eigenvalues(s.eigenvalues, p.op.t);
+  EXPECT_LE(std::abs(s.eigenvalues[0]), 1e-8);
+  // LOBPCG's residuals are within 1e-10 of the spectrum's bound c <= 2 / t (about 120 here), so
+  // its eigenvalues agree to c 1e-10 (a residual bound) with slack for the clusters: 1e-7.
+  const Spectrum q = smallest_eigenpairs(p.op.A, p.op.mass, products);
+  EXPECT_LT((q.eigenvalues - s.eigenvalues).cwiseAbs().maxCoeff(), 1e-7);
+  EXPECT_LT(q.iterations, 40);
+  // The same invariant subspaces: the projector of each cluster agrees (eigenvectors within a
+  // cluster are any M-orthonormal basis of it).
+  for (const auto& [first, size] : {std::pair{1, 3}, std::pair{4, 5}, std::pair{9, 7}}) {
+    const Eigen::MatrixXd a = s.eigenvectors.middleCols(first, size), b = q.eigenvectors.middleCols(first, size);
+    const Eigen::MatrixXd overlap = a.transpose() * p.op.mass.asDiagonal() * b;  // orthogonal when equal spans
+    EXPECT_NEAR((overlap.transpose() * overlap).trace(), size, 1e-6) << "cluster at " << first;
+  }
+  int k = 1;
+  for (int l = 1; l <= 3; ++l) {
+    const double exact = l * (l + 1.0);
+    double lo = 1e300, hi = 0;
+    for (int m = 0; m < 2 * l + 1; ++m, ++k) {
+      EXPECT_NEAR(s.eigenvalues[k], exact, 0.15 * exact) << "l = " << l;
+      EXPECT_NEAR(mu[k], exact, 0.02 * exact) << "l = " << l;
+      lo = std::min(lo, mu[k]), hi = std::max(hi, mu[k]);
+    }
+    EXPECT_LT((hi - lo) / exact, 0.02) << "l = " << l;  // the 2l + 1 copies stay together
+  }
+  // Heat flow: the first mode (x, eigenvalue 2) decays like exp(-2 tau); the operator's own
+  // decay is exp(-lambda_1 tau) with lambda_1 = (1 - e^(-2t))/t, so compare with the estimate.
+  Eigen::VectorXd u0(p.op.rows());
+  for (Eigen::Index i = 0; i < u0.size(); ++i) u0[i] = sphere.closest_point(p.op.positions.row(i).transpose()).x() - kCentre.x();
+  const double tau = 0.2;
+  const Eigen::VectorXd u = HeatFlow(p.op.A, p.op.mass, tau / 40, TimeScheme::CrankNicolson).advance(u0, 40);
+  const double amplitude = u.dot(p.op.mass.cwiseProduct(u0)) / u0.dot(p.op.mass.cwiseProduct(u0));
+  EXPECT_NEAR(amplitude, std::exp(-2 * tau), 0.01 * std::exp(-2 * tau));
+}
+
+// Issue 25, item 8: on surfaces the factors of M - theta dt A fill in (1.96 GB at 20,036
+// surfels), so the flow from a surface operator solves each step by conjugate gradients. On the
+// sphere at h = 0.1, 40 Crank-Nicolson steps: the same state as with the factorization to 1e-10
+// of its size (the CG residual is 1e-12 relative per step; 40 steps of a contraction add at most
+// 40 of those), the total heat kept to 1e-12, a few iterations per step (M dominates: dt / t is
+// small), and the same bits for 1 and 2 threads (rows in parallel, dot products in order).
+TEST(Surface, HeatFlowOnSurfacesSolvesByConjugateGradients) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const Pipeline p = run(sphere, 0.1, true, 0.1);
+  Eigen::VectorXd u0(p.op.rows());
+  for (Eigen::Index i = 0; i < u0.size(); ++i) u0[i] = std::exp(-4 * (p.op.positions.row(i).transpose() - kCentre - Eigen::Vector3d(1, 0, 0)).squaredNorm());
+  const double dt = 0.2 / 40;
+  const HeatFlow by_cg(p.op, dt);
+  EXPECT_EQ(by_cg.solver(), HeatSolver::ConjugateGradient);
+  const HeatFlow factorized(p.op, dt, TimeScheme::CrankNicolson, HeatSolver::Factorization);
+  EXPECT_EQ(factorized.solver(), HeatSolver::Factorization);
+  EXPECT_EQ(HeatFlow(p.op.A, p.op.mass, dt).solver(), HeatSolver::Factorization);  // a bare pair: no dimension known
+  const Eigen::VectorXd u = by_cg.advance(u0, 40), reference = factorized.advance(u0, 40);
+  EXPECT_LT((u - reference).cwiseAbs().maxCoeff(), 1e-10 * reference.cwiseAbs().maxCoeff());
+  EXPECT_NEAR(u.dot(p.op.mass), u0.dot(p.op.mass), 1e-12 * u0.dot(p.op.mass));
+  by_cg.step(u0);
+  EXPECT_GT(by_cg.last_iterations(), 0);
+  EXPECT_LT(by_cg.last_iterations(), 40);
+  EXPECT_EQ(on_threads(1, [&] { return by_cg.advance(u0, 5); }), on_threads(2, [&] { return by_cg.advance(u0, 5); }));
+}
+
+// Issue 13's must-show: the sphere at h = 0.02 with the defaults (II normals, c_t = 0.1, the
+// measured length scale), N = 46,950, through LOBPCG on products (about 20 s and 4.7 GB; the
+// factorization would not fit). Measured: l = 1..3 within 0.57% of l(l+1) after the bias
+// correction, clusters split by 0.19% (l = 2) and 0.10% (l = 3). Asserted: 1% and 1%, the
+// issue's figures. Left out of the sanitizer run (scripts/sanitize.sh) for its size.
+TEST(Surface, SphereSpectrumAtFineStep) {
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const VoxelSet voxels = digitize(sphere, 0.02);
+  const SurfelSet surfels = extract_surfels(voxels);
+  const SurfelMeasures mu = measures(surfels, ii_normals(voxels, surfels));
+  const SurfaceOperator op = heat_laplacian(surfels, mu);
+  SpectrumOptions o;
+  o.count = 17, o.method = SpectrumMethod::Products;
+  const Spectrum s = smallest_eigenpairs(op.A, op.mass, o);
+  const Eigen::VectorXd lb = laplace_beltrami_eigenvalues(s.eigenvalues, op.t);
+  int k = 1;
+  for (int l = 1; l <= 3; ++l) {
+    const double exact = l * (l + 1.0);
+    double lo = 1e300, hi = 0;
+    for (int m = 0; m < 2 * l + 1; ++m, ++k) {
+      EXPECT_NEAR(lb[k], exact, 0.01 * exact) << "l = " << l << ", k = " << k;
+      lo = std::min(lo, lb[k]), hi = std::max(hi, lb[k]);
+    }
+    EXPECT_LT((hi - lo) / exact, 0.01) << "l = " << l;
+  }
+  EXPECT_GT(lb[16], 19.0);  // the 17th is l = 4 (20): the three clusters are whole
+}
+
+// Issue 25, item 3: five balls 3.4 voxels apart (the kernel's cut is larger) are five surfaces:
+// five zero eigenvalues, and the first non-zero eigenvalues are each ball's own. The ambient
+// coupling of earlier releases is still there on request, and joins them into one.
+TEST(SurfaceParts, SeparateObjectsCloserThanTheCutAreNotCoupled) {
+  const double r = 5;
+  auto balls = voxels_of(90, [&](int i, int j, int k) {
+    for (int b = 0; b < 5; ++b)
+      if (in_ball(i, j, k, 8 + b * (2 * r + 3.4), 10, 10, r)) return true;
+    return false;
+  });
+  const Pipeline p = run(balls);
+  ASSERT_EQ(p.surfels.surfaces(), 5u);
+  ASSERT_GT(p.op.cut, 3.4 + 1);  // the balls would interact through the kernel
+  SpectrumOptions o;
+  o.count = 10;
+  const Spectrum s = smallest_eigenpairs(p.op, o);
+  // LOBPCG's tolerance is 1e-10 relative to the top of the spectrum (about 1 / t): the zeros
+  // are 0 to that, the first non-zero ones far above.
+  for (int k = 0; k < 5; ++k) EXPECT_LT(std::abs(s.eigenvalues[k]), 1e-8 * s.eigenvalues[9]) << "k " << k;
+  EXPECT_GT(s.eigenvalues[5], 1e-3 * s.eigenvalues[9]);
+  // No entry of L joins two surfaces.
+  for (std::size_t part = 0; part < p.op.parts(); ++part)
+    for (Eigen::Index i = p.op.row_offset[part]; i < p.op.row_offset[part + 1]; ++i)
+      for (SparseMatrix::InnerIterator it(p.op.L, i); it; ++it)
+        ASSERT_TRUE(it.col() >= p.op.row_offset[part] && it.col() < p.op.row_offset[part + 1]) << "row " << i;
+  HeatLaplacianOptions coupled;
+  coupled.couple_surfaces = true;
+  const Pipeline q = run(balls, coupled);
+  EXPECT_EQ(q.op.parts(), 1u);
+  o.count = 3;
+  const Spectrum c = smallest_eigenpairs(q.op, o);
+  EXPECT_GT(c.eigenvalues[1], 1e-3 * c.eigenvalues[2]);  // one zero: the balls are joined
+}
+
+// Issue 25, item 5: parts solved side by side gave eigenvalues 1e-17 and eigenvectors 0.12
+// apart between 1 and 2 threads (Eigen blocked its sums for two threads inside a serial nested
+// region). Two balls of different radii (two parts, each of about 1,300 surfels, solved by
+// LOBPCG): the same bits for 1 and 2 threads, as for one part.
+TEST(SurfaceParts, SpectraOfSeveralPartsAreBitwiseIndependentOfTheThreads) {
+  const Pipeline p = run(voxels_of(48, [](int i, int j, int k) {
+    return in_ball(i, j, k, 12, 24, 24, 9) || in_ball(i, j, k, 35, 24, 24, 8);
+  }));
+  ASSERT_EQ(p.op.parts(), 2u);
+  SpectrumOptions o;
+  o.count = 10;
+  const Spectrum one = on_threads(1, [&] { return smallest_eigenpairs(p.op, o); });
+  const Spectrum two = on_threads(2, [&] { return smallest_eigenpairs(p.op, o); });
+  const std::vector<Spectrum> one_per_part = on_threads(1, [&] { return smallest_eigenpairs_per_part(p.op, o); });
+  const std::vector<Spectrum> two_per_part = on_threads(2, [&] { return smallest_eigenpairs_per_part(p.op, o); });
+  EXPECT_EQ(one.eigenvalues, two.eigenvalues);
+  EXPECT_EQ(one.eigenvectors, two.eigenvectors);
+  ASSERT_EQ(one_per_part.size(), 2u);
+  for (std::size_t q = 0; q < 2; ++q) {
+    EXPECT_EQ(one_per_part[q].eigenvalues, two_per_part[q].eigenvalues) << "part " << q;
+    EXPECT_EQ(one_per_part[q].eigenvectors, two_per_part[q].eigenvectors) << "part " << q;
+  }
+}
