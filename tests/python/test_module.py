@@ -26,7 +26,9 @@ def flower_operator(h=0.02, **options):
 
 def test_csr_arrays_equal_the_cpp_export(tmp_path):
     op = flower_operator()
-    digilap.save_operator(op, str(tmp_path))
+    paths = digilap.save_operator(op, str(tmp_path))
+    # A contour operator gets its element table too (its overload is tried before the core's).
+    assert [pathlib.Path(p).name for p in paths] == ["L.mtx", "A.mtx", "M.mtx", "elements.csv"]
     for name in ("L", "A", "M"):
         ours = getattr(op, name)
         assert isinstance(ours, scipy.sparse.csr_matrix)
