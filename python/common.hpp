@@ -2,6 +2,7 @@
 // names from Python, the GIL guard, and NumPy / SciPy views on the operators' memory.
 #pragma once
 
+#include "digilap/core/io.hpp"
 #include "digilap/core/operator.hpp"
 
 #include <pybind11/eigen.h>
@@ -61,6 +62,12 @@ inline py::object csr_view(const SparseMatrix& m, py::handle owner) {
   // digilap._views.OperatorMatrix: a csr_matrix whose in-place methods say to take a copy.
   py::object csr = py::module_::import("digilap._views").attr("OperatorMatrix");
   return csr(py::make_tuple(data, indices, indptr), py::arg("shape") = py::make_tuple(n, n), py::arg("copy") = false);
+}
+
+/// save_operator's format argument: "mtx" (Matrix Market) or "npz", else a ValueError.
+inline FileFormat file_format_of(const std::string& format) {
+  if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
+  return format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
 }
 
 /// The bindings of each layer, in the order module.cpp calls them: the core first (HeatOperator

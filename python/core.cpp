@@ -78,11 +78,9 @@ void bind_core(py::module_& m) {
   m.def("smooth_function", py::overload_cast<const HeatOperator&, const Eigen::VectorXd&, double, int>(&smooth_function), py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
         "f after heat diffusion for a time tau (implicit Euler steps).");
   m.def("save_operator", [](const HeatOperator& op, const FilePath& directory, const std::string& prefix, const std::string& format) {
-        const std::string& dir = directory.value;
-        if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
+        const FileFormat f = file_format_of(format);
         py::gil_scoped_release release;
-        const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
-        return save_operator(op, dir, prefix, f);
+        return save_operator(op, directory.value, prefix, f);
       }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx",
       "Writes L, A and M of any operator (Matrix Market, or .npz).");
   m.def("load_matrix_market", [](const FilePath& path) { return load_matrix_market(path.value); }, py::arg("path"), Release(),

@@ -285,11 +285,9 @@ void bind_curve(py::module_& m) {
       "The convergence experiment (the paper's Fig. 5): one dict per (h, operator) with the errors against the exact\n"
       "Laplace-Beltrami operator of the test function ('x2', 'xy', 'cos1' .. 'cos9').");
   m.def("save_operator", [](const ContourOperator& op, const FilePath& directory, const std::string& prefix, const std::string& format) {
-        const std::string& dir = directory.value;
-        if (format != "mtx" && format != "npz") throw py::value_error("format: expected 'mtx' or 'npz', got '" + format + "'");
+        const FileFormat f = file_format_of(format);
         py::gil_scoped_release release;
-        const FileFormat f = format == "npz" ? FileFormat::Npz : FileFormat::MatrixMarket;
-        return save_operator(op, dir, prefix, f);
+        return save_operator(op, directory.value, prefix, f);
       }, py::arg("op"), py::arg("directory"), py::arg("prefix") = "", py::arg("format") = "mtx", py::prepend(),
       "Writes L, A, M and the element table (Matrix Market + CSV, or .npz).");
 }

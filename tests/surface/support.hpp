@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 
 #include <array>
+#include <cstdint>
 #include <cmath>
 #include <functional>
 #include <memory>
@@ -66,6 +67,16 @@ inline double x2_error(const Surface& s, const SurfaceOperator& op) {
     lap[i] = 2 - 2 * n.x() * n.x() - 2 * s.mean_curvature(p) * 2 * q.x() * n.x();
   }
   return (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff();
+}
+
+// Every lattice point (i, j, k) of step h in the surface's bounding box grown by 2 voxels: the
+// brute-force side of the digitization and surfel tests.
+template <class Visit>
+void for_each_lattice_point(const Surface& s, double h, Visit visit) {
+  const auto box = s.bounding_box();
+  for (std::int64_t k = std::floor(box.min().z() / h) - 2; k <= std::ceil(box.max().z() / h) + 2; ++k)
+    for (std::int64_t j = std::floor(box.min().y() / h) - 2; j <= std::ceil(box.max().y() / h) + 2; ++j)
+      for (std::int64_t i = std::floor(box.min().x() / h) - 2; i <= std::ceil(box.max().x() / h) + 2; ++i) visit(i, j, k);
 }
 
 using Predicate = std::function<bool(int, int, int)>;

@@ -17,15 +17,12 @@ TEST(Surface, DigitizationEqualsTheInsideTestVoxelByVoxel) {
     const auto s = posed(make_surface(name));
     const double h = 0.08;
     const VoxelSet v = digitize(*s, h);
-    const auto box = s->bounding_box();
     std::int64_t expected = 0, mismatches = 0;
-    for (std::int64_t k = std::floor(box.min().z() / h) - 2; k <= std::ceil(box.max().z() / h) + 2; ++k)
-      for (std::int64_t j = std::floor(box.min().y() / h) - 2; j <= std::ceil(box.max().y() / h) + 2; ++j)
-        for (std::int64_t i = std::floor(box.min().x() / h) - 2; i <= std::ceil(box.max().x() / h) + 2; ++i) {
-          const bool inside = s->inside(Eigen::Vector3d(i * h, j * h, k * h));
-          expected += inside;
-          mismatches += inside != v.contains(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k));
-        }
+    for_each_lattice_point(*s, h, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+      const bool inside = s->inside(Eigen::Vector3d(i * h, j * h, k * h));
+      expected += inside;
+      mismatches += inside != v.contains(static_cast<int>(i), static_cast<int>(j), static_cast<int>(k));
+    });
     EXPECT_EQ(mismatches, 0) << name;
     EXPECT_EQ(v.voxel_count(), expected) << name;
     EXPECT_DOUBLE_EQ(v.h(), h);

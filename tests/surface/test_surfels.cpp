@@ -17,13 +17,11 @@ TEST(Surface, SurfelsAreTheFacesBetweenInsideAndOutside) {
     const auto s = posed(make_surface(name));
     const double h = 0.08;
     const VoxelSet v = digitize(*s, h);
-    const auto box = s->bounding_box();
     std::int64_t faces = 0;
     auto in = [&](std::int64_t i, std::int64_t j, std::int64_t k) { return s->inside(Eigen::Vector3d(i * h, j * h, k * h)); };
-    for (std::int64_t k = std::floor(box.min().z() / h) - 2; k <= std::ceil(box.max().z() / h) + 2; ++k)
-      for (std::int64_t j = std::floor(box.min().y() / h) - 2; j <= std::ceil(box.max().y() / h) + 2; ++j)
-        for (std::int64_t i = std::floor(box.min().x() / h) - 2; i <= std::ceil(box.max().x() / h) + 2; ++i)
-          if (in(i, j, k)) faces += !in(i + 1, j, k) + !in(i - 1, j, k) + !in(i, j + 1, k) + !in(i, j - 1, k) + !in(i, j, k + 1) + !in(i, j, k - 1);
+    for_each_lattice_point(*s, h, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+      if (in(i, j, k)) faces += !in(i + 1, j, k) + !in(i - 1, j, k) + !in(i, j + 1, k) + !in(i, j - 1, k) + !in(i, j, k + 1) + !in(i, j, k - 1);
+    });
     const SurfelSet f = extract_surfels(v);
     EXPECT_EQ(static_cast<std::int64_t>(f.size()), faces) << name;
     for (const Surfel& surfel : f.surfels) {
