@@ -1,4 +1,5 @@
 #include "components.hpp"
+#include "union_find.hpp"
 
 #include <numeric>
 
@@ -6,18 +7,12 @@ namespace digilap::detail {
 
 Components connected_components(const SparseMatrix& A) {
   const Eigen::Index n = A.rows();
-  // Union-find with path halving; each root is the smallest row of its tree.
-  std::vector<Eigen::Index> parent(static_cast<std::size_t>(n));
-  std::iota(parent.begin(), parent.end(), Eigen::Index(0));
-  auto root = [&](Eigen::Index i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  UnionFind trees(static_cast<std::size_t>(n));  // each root the smallest row of its tree
+  auto root = [&](Eigen::Index i) { return static_cast<Eigen::Index>(trees.root(static_cast<std::size_t>(i))); };
   for (Eigen::Index i = 0; i < n; ++i)
     for (SparseMatrix::InnerIterator it(A, i); it; ++it) {
       if (it.col() == i || it.value() == 0) continue;
-      const Eigen::Index a = root(i), b = root(it.col());
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+      trees.join(static_cast<std::size_t>(i), static_cast<std::size_t>(it.col()));
     }
   Components c;
   c.of_row.assign(static_cast<std::size_t>(n), -1);

@@ -1,5 +1,7 @@
 #include "digilap/surface/surfels.hpp"
 
+#include "core/union_find.hpp"
+
 #include <algorithm>
 #include <numeric>
 #include <unordered_map>
@@ -135,12 +137,7 @@ SurfelComponents connected_surfaces(const VoxelSet& set, const SurfelSet& surfel
   std::unordered_map<Surfel, std::size_t, SurfelKey, SurfelEqual> index;
   index.reserve(n);
   for (std::size_t s = 0; s < n; ++s) index.emplace(surfels.surfels[s], s);
-  std::vector<std::size_t> parent(n);
-  std::iota(parent.begin(), parent.end(), std::size_t(0));
-  auto root = [&](std::size_t i) {
-    while (parent[i] != i) i = parent[i] = parent[parent[i]];
-    return i;
-  };
+  digilap::detail::UnionFind trees(n);
   auto inside = [&](const Eigen::Vector3i& v) { return set.contains(v.x(), v.y(), v.z()); };
   for (std::size_t s = 0; s < n; ++s) {
     const Surfel& f = surfels.surfels[s];
@@ -157,15 +154,14 @@ SurfelComponents connected_surfaces(const VoxelSet& set, const SurfelSet& surfel
         else next = {f.voxel, static_cast<std::int8_t>(c), static_cast<std::int8_t>(d)};                                     // convex
         const auto it = index.find(next);
         if (it == index.end()) continue;  // cannot happen on a set's own surfels
-        const std::size_t a = root(s), b = root(it->second);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b);
+        trees.join(s, it->second);
       }
     }
   }
   SurfelComponents out;
   out.of_surfel.assign(n, -1);
   for (std::size_t s = 0; s < n; ++s) {
-    const std::size_t r = root(s);
+    const std::size_t r = trees.root(s);
     if (r == s) {
       out.of_surfel[s] = static_cast<int>(out.sizes.size());
       out.sizes.push_back(0);
