@@ -2,6 +2,7 @@
 // (the fast Gauss transform). Its spectrum is in matrix_free_spectrum.cpp, its CG heat step in
 // matrix_free_heat_step.cpp.
 #include "digilap/curve/matrix_free.hpp"
+#include "matrix_free_plan.hpp"
 #include "digilap/core/constants.hpp"
 
 #include "digilap/core/error.hpp"
@@ -108,8 +109,8 @@ void translation_matrix(double u, int p, double* T) {
 
 }  // namespace
 
-MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures,
-                                         const HeatLaplacianOptions& options, double epsilon) {
+MatrixFreeLaplacian::Plan::Plan(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options,
+                                double epsilon) {
   if (options.distance != DistanceMode::Geodesic)
     throw Error("MatrixFreeLaplacian: only the geodesic distance is a convolution along the contour");
   if (options.richardson) throw Error("MatrixFreeLaplacian: Richardson extrapolation is not available matrix-free");
@@ -220,7 +221,7 @@ MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measu
   diagonal_ = -row_scale.cwiseProduct(transform_of_mass_ - mass_);
 }
 
-double MatrixFreeLaplacian::direct_share() const {
+double MatrixFreeLaplacian::Plan::direct_share() const {
   Eigen::Index direct = 0;
   for (const Contour& ct : contours_) {
     if (ct.direct) {
@@ -245,7 +246,7 @@ double MatrixFreeLaplacian::direct_share() const {
 // The first factor is a weight of the source, the second of the target: the band contributes
 // tau_i sum_n alpha_i^n M_n(i), with M_n(i) the moments sum w_j (2 beta_j)^n / n! over the
 // part of the band in i's window, a prefix (forward) or suffix (backward) sum.
-void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
+void MatrixFreeLaplacian::Plan::plan_contour(Contour& ct, double epsilon) {
   const double* s = s_.data() + ct.offset;
   const Eigen::Index n = ct.n;
   ct.box_of.resize(static_cast<std::size_t>(n));
@@ -373,7 +374,7 @@ void MatrixFreeLaplacian::plan_contour(Contour& ct, double epsilon) {
   }
 }
 
-void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc,
+void MatrixFreeLaplacian::Plan::direct_sums(const Contour& ct, Eigen::Index i0, Eigen::Index i1, const double* fc,
                                       double* oc) const {
   const double* s = s_.data() + ct.offset;
   const Eigen::Index n = ct.n;
@@ -389,7 +390,7 @@ void MatrixFreeLaplacian::direct_sums(const Contour& ct, Eigen::Index i0, Eigen:
   }
 }
 
-void MatrixFreeLaplacian::gauss_transform(const double* x, double* out, double* y, Scratch& scratch) const {
+void MatrixFreeLaplacian::Plan::gauss_transform(const double* x, double* out, double* y, Scratch& scratch) const {
   if (x) scratch.weighted.resize(rows());
   for (const Contour& ct : contours_)
     contour_transform(ct, x ? x + ct.offset : nullptr, x ? scratch.weighted.data() + ct.offset : nullptr, out + ct.offset,
@@ -397,8 +398,8 @@ void MatrixFreeLaplacian::gauss_transform(const double* x, double* out, double* 
 }
 
 // What the kernels of one contour's product share (see matrix_free_kernels.inc).
-struct MatrixFreeLaplacian::KernelArgs {
-  const MatrixFreeLaplacian& op;
+struct MatrixFreeLaplacian::Plan::KernelArgs {
+  const Plan& op;
   const Contour& ct;
   const double* fc;  // mu x, from the contour's first row
   double* oc;        // its transform
@@ -416,7 +417,7 @@ struct MatrixFreeLaplacian::KernelArgs {
 };
 
 // Each thread's scratch for the target boxes it takes.
-struct MatrixFreeLaplacian::BoxScratch {
+struct MatrixFreeLaplacian::Plan::BoxScratch {
   double local[64];             // Taylor coefficients of the core, in taylor_column order
   std::vector<double> wrapped;  // a translation matrix computed on the spot
   std::vector<Pair> forward_rows, backward_rows;  // band moments
@@ -438,7 +439,7 @@ struct MatrixFreeLaplacian::BoxScratch {
 #pragma GCC pop_options
 #endif
 
-void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc, double* fc, double* oc,
+void MatrixFreeLaplacian::Plan::contour_transform(const Contour& ct, const double* xc, double* fc, double* oc,
                                             std::vector<double>& box_moments, double* yc) const {
   const double* mass = mass_.data() + ct.offset;
   KernelArgs args{*this, ct, xc ? fc : mass, oc, xc, yc, nullptr, order_, {}};
@@ -452,12 +453,12 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc,
   if (!ct.direct) box_moments.resize(std::max(box_moments.size(), static_cast<std::size_t>(ct.boxes) * p));
   args.H = box_moments.data();
   // The build of the per-box loops this operator runs, chosen once (wide_kernels_).
-  auto box_moments_of = &MatrixFreeLaplacian::box_moments_plain;
-  auto target_box_of = &MatrixFreeLaplacian::target_box_plain;
+  auto box_moments_of = &MatrixFreeLaplacian::Plan::box_moments_plain;
+  auto target_box_of = &MatrixFreeLaplacian::Plan::target_box_plain;
 #if DIGILAP_WIDE_KERNELS
   if (wide_kernels_) {
-    box_moments_of = &MatrixFreeLaplacian::box_moments_wide;
-    target_box_of = &MatrixFreeLaplacian::target_box_wide;
+    box_moments_of = &MatrixFreeLaplacian::Plan::box_moments_wide;
+    target_box_of = &MatrixFreeLaplacian::Plan::target_box_wide;
   }
 #endif
   // One parallel region, its loops separated by barriers only: on the project's virtual
@@ -498,17 +499,17 @@ void MatrixFreeLaplacian::contour_transform(const Contour& ct, const double* xc,
   }
 }
 
-void MatrixFreeLaplacian::apply(const double* x, double* y) const {
+void MatrixFreeLaplacian::Plan::apply(const double* x, double* y) const {
   // Scratch kept between products (a fresh 2 N doubles per product were page faults).
   scratch_.transformed.resize(rows());
   gauss_transform(x, scratch_.transformed.data(), y, scratch_);
 }
 
-void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const {
+void MatrixFreeLaplacian::Plan::apply_contour(std::size_t c, const double* x, double* y) const {
   apply_contour_with(c, x, y, scratch_);
 }
 
-void MatrixFreeLaplacian::apply_contour_with(std::size_t c, const double* x, double* y, Scratch& scratch) const {
+void MatrixFreeLaplacian::Plan::apply_contour_with(std::size_t c, const double* x, double* y, Scratch& scratch) const {
   if (c >= contours_.size()) throw Error("MatrixFreeLaplacian::apply_contour: no contour " + std::to_string(c));
   const Contour& ct = contours_[c];
   scratch.weighted.resize(ct.n);
@@ -516,7 +517,7 @@ void MatrixFreeLaplacian::apply_contour_with(std::size_t c, const double* x, dou
   contour_transform(ct, x, scratch.weighted.data(), scratch.transformed.data(), scratch.box_moments, y);
 }
 
-void MatrixFreeLaplacian::apply_contour_block(std::size_t c, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
+void MatrixFreeLaplacian::Plan::apply_contour_block(std::size_t c, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
   if (c >= contours_.size()) throw Error("MatrixFreeLaplacian::apply_contour_block: no contour " + std::to_string(c));
   if (x.rows() != contours_[c].n)
     throw Error("MatrixFreeLaplacian::apply_contour_block: the block has " + std::to_string(x.rows()) +
@@ -537,35 +538,75 @@ void MatrixFreeLaplacian::apply_contour_block(std::size_t c, const Eigen::Matrix
   }
 }
 
-Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const {
+Eigen::VectorXd MatrixFreeLaplacian::Plan::operator*(const Eigen::VectorXd& x) const {
   if (x.size() != rows()) throw Error("MatrixFreeLaplacian: the vector has the wrong size");
   Eigen::VectorXd y(rows());
   apply(x.data(), y.data());
   return y;
 }
 
-Eigen::VectorXd MatrixFreeLaplacian::apply_stiffness(const Eigen::VectorXd& x) const {
+Eigen::VectorXd MatrixFreeLaplacian::Plan::apply_stiffness(const Eigen::VectorXd& x) const {
   return mass_.cwiseProduct(*this * x);
 }
 
-std::vector<double> MatrixFreeLaplacian::contour_t() const {
+std::vector<double> MatrixFreeLaplacian::Plan::contour_t() const {
   std::vector<double> t;
   for (const Contour& ct : contours_) t.push_back(ct.t);
   return t;
 }
 
-std::vector<double> MatrixFreeLaplacian::contour_lengths() const {
+std::vector<double> MatrixFreeLaplacian::Plan::contour_lengths() const {
   std::vector<double> lengths;
   for (const Contour& ct : contours_) lengths.push_back(ct.P);
   return lengths;
 }
 
-bool MatrixFreeLaplacian::contour_is_connected(std::size_t c) const {
+bool MatrixFreeLaplacian::Plan::contour_is_connected(std::size_t c) const {
   const Contour& ct = contours_.at(c);
   for (Eigen::Index i = 0; i < ct.n && ct.n > 1; ++i)
     if (fwd_[ct.offset + i] < 1) return false;
   return true;
 }
+
+
+// --- The public class: forwards to its plan ------------------------------------------------
+
+MatrixFreeLaplacian::MatrixFreeLaplacian(const ContourSet& contours, const Measures& measures, const HeatLaplacianOptions& options,
+                                         double epsilon)
+    : plan_(std::make_unique<Plan>(contours, measures, options, epsilon)) {}
+MatrixFreeLaplacian::~MatrixFreeLaplacian() = default;
+MatrixFreeLaplacian::MatrixFreeLaplacian(const MatrixFreeLaplacian& other) : plan_(std::make_unique<Plan>(*other.plan_)) {}
+MatrixFreeLaplacian& MatrixFreeLaplacian::operator=(const MatrixFreeLaplacian& other) {
+  if (this != &other) plan_ = std::make_unique<Plan>(*other.plan_);
+  return *this;
+}
+MatrixFreeLaplacian::MatrixFreeLaplacian(MatrixFreeLaplacian&&) noexcept = default;
+MatrixFreeLaplacian& MatrixFreeLaplacian::operator=(MatrixFreeLaplacian&&) noexcept = default;
+
+Eigen::Index MatrixFreeLaplacian::rows() const { return plan_->rows(); }
+Eigen::Index MatrixFreeLaplacian::cols() const { return plan_->cols(); }
+double MatrixFreeLaplacian::t() const { return plan_->t(); }
+double MatrixFreeLaplacian::length_scale() const { return plan_->length_scale(); }
+double MatrixFreeLaplacian::cut() const { return plan_->cut(); }
+int MatrixFreeLaplacian::order() const { return plan_->order(); }
+int MatrixFreeLaplacian::band_order() const { return plan_->band_order(); }
+bool MatrixFreeLaplacian::wide_kernels() const { return plan_->wide_kernels(); }
+const Eigen::VectorXd& MatrixFreeLaplacian::mass() const { return plan_->mass(); }
+const Eigen::VectorXd& MatrixFreeLaplacian::diagonal() const { return plan_->diagonal(); }
+const std::vector<Eigen::Index>& MatrixFreeLaplacian::row_offset() const { return plan_->row_offset(); }
+const Eigen::MatrixX2d& MatrixFreeLaplacian::positions() const { return plan_->positions(); }
+const Eigen::VectorXd& MatrixFreeLaplacian::arclength() const { return plan_->arclength(); }
+double MatrixFreeLaplacian::direct_share() const { return plan_->direct_share(); }
+std::vector<double> MatrixFreeLaplacian::contour_t() const { return plan_->contour_t(); }
+bool MatrixFreeLaplacian::contour_is_connected(std::size_t c) const { return plan_->contour_is_connected(c); }
+std::vector<double> MatrixFreeLaplacian::contour_lengths() const { return plan_->contour_lengths(); }
+void MatrixFreeLaplacian::apply(const double* x, double* y) const { plan_->apply(x, y); }
+Eigen::VectorXd MatrixFreeLaplacian::operator*(const Eigen::VectorXd& x) const { return *plan_ * x; }
+void MatrixFreeLaplacian::apply_contour(std::size_t c, const double* x, double* y) const { plan_->apply_contour(c, x, y); }
+void MatrixFreeLaplacian::apply_contour_block(std::size_t c, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
+  plan_->apply_contour_block(c, x, y);
+}
+Eigen::VectorXd MatrixFreeLaplacian::apply_stiffness(const Eigen::VectorXd& x) const { return plan_->apply_stiffness(x); }
 
 }  // namespace curve
 }  // namespace digilap

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 using namespace digilap;
@@ -134,6 +135,31 @@ TEST(MatrixFree, PlainAndWideKernelsAgree) {
   }
   const double scale = mf.diagonal().cwiseAbs().maxCoeff() * g.cwiseAbs().maxCoeff();
   EXPECT_LE((y[0] - y[1]).cwiseAbs().maxCoeff(), 1e-13 * scale);
+}
+
+// The plan sits behind a pointer (issue 21): a copy is deep, with scratch of its own, so that
+// products on an operator and on its copy may run at the same time (shared scratch would mix
+// them); both give the original's bits. A moved-to operator works as the original did.
+TEST(MatrixFree, CopiesAreDeepAndMovesKeepThePlan) {
+  const Pipeline s = pipeline(Flower(), 0.01);
+  const MatrixFreeLaplacian original(s.contours, s.mu);
+  const Eigen::VectorXd g = Eigen::VectorXd::Random(original.rows()), h = Eigen::VectorXd::Random(original.rows());
+  const Eigen::VectorXd expected_g = original * g, expected_h = original * h;
+  const MatrixFreeLaplacian copy = original;
+  Eigen::VectorXd from_original[20], from_copy[20];
+  std::thread other([&] {
+    for (auto& y : from_copy) y = copy * h;
+  });
+  for (auto& y : from_original) y = original * g;
+  other.join();
+  for (int k = 0; k < 20; ++k) {
+    EXPECT_EQ(from_original[k], expected_g) << k;
+    EXPECT_EQ(from_copy[k], expected_h) << k;
+  }
+  MatrixFreeLaplacian moved = MatrixFreeLaplacian(s.contours, s.mu);
+  EXPECT_EQ(moved * g, expected_g);
+  EXPECT_EQ(moved.t(), original.t());
+  EXPECT_EQ(moved.mass(), original.mass());
 }
 
 // Windows about one element wide (k = 0.5): boxes would outnumber the elements, so the
