@@ -4,6 +4,7 @@
 //   digilap-bench-surface H C_T [SURFACE [L [K_R]]]
 // SURFACE: sphere (default), ellipsoid, torus, with parameters; L: the length scale (default 1,
 // the reference computation's t = C_T h^(2/3); 0 measures it); K_R: the II constant (default 1).
+#include "digilap/surface/ground_truth.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
 #include <sys/resource.h>
@@ -42,13 +43,8 @@ int main(int argc, char** argv) {
   o.memory_limit_bytes = 20e9;
   const SurfaceOperator op = heat_laplacian(surfels, mu, o);
   const double t_operator = seconds(t2), t_total = seconds(t0);
-  Eigen::VectorXd g(op.rows()), lap(op.rows());
-  for (Eigen::Index i = 0; i < op.rows(); ++i) {
-    const Eigen::Vector3d p = sphere.closest_point(op.positions.row(i).transpose()), q = p - centre, n = sphere.normal(p);
-    g[i] = q.x() * q.x();
-    lap[i] = 2 - 2 * n.x() * n.x() - 2 * sphere.mean_curvature(p) * 2 * q.x() * n.x();
-  }
-  const double error = (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff();
+  const SurfaceTestSamples x2 = sample_test_function(sphere, "x2", op.positions);
+  const double error = relative_max_error(op.L * x2.values, x2);
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   // II normals: O((R/h)^2) per surfel (the ball's voxel rows meet the runs), so this is flat in h.

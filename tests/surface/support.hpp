@@ -5,6 +5,7 @@
 #include "digilap/core/error.hpp"
 #include "digilap/core/heat_flow.hpp"
 #include "digilap/core/spectrum.hpp"
+#include "digilap/surface/ground_truth.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/surface/volume.hpp"
 
@@ -57,16 +58,11 @@ inline Pipeline run(const std::vector<Eigen::Vector3i>& voxels, const HeatLaplac
   return p;
 }
 
-// max |L g - Delta_S g| / max |Delta_S g| for g = x^2 (relative to the centre), at the closest
-// points (SPEC §7: Delta_S g = tr(Hess g) - <n, Hess g n> - 2 H <grad g, n>).
+// max |L g - Delta_S g| / max |Delta_S g| for g = x^2 about the surface's centre, at the closest
+// points (surface/ground_truth.hpp, SPEC §7).
 inline double x2_error(const Surface& s, const SurfaceOperator& op) {
-  Eigen::VectorXd g(op.rows()), lap(op.rows());
-  for (Eigen::Index i = 0; i < op.rows(); ++i) {
-    const Eigen::Vector3d p = s.closest_point(op.positions.row(i).transpose()), q = p - kCentre, n = s.normal(p);
-    g[i] = q.x() * q.x();
-    lap[i] = 2 - 2 * n.x() * n.x() - 2 * s.mean_curvature(p) * 2 * q.x() * n.x();
-  }
-  return (op.L * g - lap).cwiseAbs().maxCoeff() / lap.cwiseAbs().maxCoeff();
+  const SurfaceTestSamples x2 = sample_test_function(s, "x2", op.positions);
+  return relative_max_error(op.L * x2.values, x2);
 }
 
 // Every lattice point (i, j, k) of step h in the surface's bounding box grown by 2 voxels: the

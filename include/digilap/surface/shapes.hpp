@@ -22,6 +22,8 @@ public:
   /// Moves the surface: x -> rotation x + centre (rotation orthonormal, det 1; finite centre).
   /// Throws digilap::Error otherwise.
   void set_pose(const Eigen::Vector3d& centre, const Eigen::Matrix3d& rotation);
+  Eigen::Vector3d centre() const { return centre_; }
+  Eigen::Matrix3d rotation() const { return rotation_; }
   /// Strictly inside.
   bool inside(const Eigen::Vector3d& p) const;
   /// The point of the surface closest to p (orthogonal projection). Throws for a non-finite p.
