@@ -127,6 +127,10 @@ void bind_surface(py::module_& m, py::module_& s) {
         return surface::ii_normals(v, f, {k_R, l});
       }, py::arg("voxels"), py::arg("surfels"), py::arg("k_R") = surface::SurfaceNormalOptions{}.k_R, py::arg("length_scale") = 0.0,
       Release(), "II normals, ball radius R = k_R h^(1/3) l^(2/3) (l measured when 0).");
+  s.def("exact_normals", [](const surface::Surface& surface, const surface::SurfelSet& f, double l) {
+        return surface::exact_normals(surface, f, l);
+      }, py::arg("surface"), py::arg("surfels"), py::arg("length_scale") = 0.0, Release(),
+      "The exact outward normals at the surfel centres' closest points (l measured as for ii_normals when 0).");
   py::class_<surface::SurfelMeasures>(s, "SurfelMeasures")
       .def_readonly("mu", &surface::SurfelMeasures::mu)
       .def_readonly("length_scale", &surface::SurfelMeasures::length_scale)

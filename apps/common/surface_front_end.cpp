@@ -56,12 +56,7 @@ SurfaceFrontEnd surface_front_end(surface::VoxelSet voxels, const std::string& n
     if (shape == nullptr) throw Error("--normals exact needs a reference surface (--shape sphere, ellipsoid or torus)");
     // The exact normals of the shape at the closest point of each surfel centre; l as given, or
     // measured on the voxels as the II normals would (it sets t).
-    LengthScale measured;
-    if (o.length_scale == 0) measured = surface::length_scale(fe.voxels, fe.surfels, {LengthScaleOptions{}.k_R, o.length_quantile});
-    fe.normals = surface::exact_normals(*shape, fe.surfels, o.length_scale > 0 ? o.length_scale : measured.length);
-    fe.normals.surface_length_scales = measured.per_contour;
-    for (double& l_c : fe.normals.surface_length_scales)
-      if (!(l_c > 0)) l_c = fe.normals.length_scale;
+    fe.normals = surface::exact_normals(*shape, fe.voxels, fe.surfels, {ii_k_R(o.k_R, 2), o.length_scale, o.length_quantile});
   } else {
     fe.normals = surface::ii_normals(fe.voxels, fe.surfels, {ii_k_R(o.k_R, 2), o.length_scale, o.length_quantile});
   }

@@ -39,20 +39,28 @@ Eigen::Vector3d covariance_normal(const Moments& mo, const Eigen::Vector3d& cent
 
 }  // namespace
 
+namespace {
+// l (and each surface's l_c) given or measured on the set: the same for II and exact normals.
+void set_length_scale(const char* who, const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o,
+                      SurfelNormals& out) {
+  out.length_scale = o.length_scale;
+  if (o.length_scale != 0) {
+    require_positive(std::string(who) + ": length_scale", o.length_scale);
+    return;
+  }
+  const LengthScale measured = length_scale(set, surfels, {LengthScaleOptions{}.k_R, o.length_quantile});
+  out.length_scale = measured.length;
+  out.surface_length_scales = measured.per_contour;
+  for (double& l_c : out.surface_length_scales)  // a surface too small to be sampled: the set's l
+    if (!(l_c > 0)) l_c = out.length_scale;
+}
+}  // namespace
+
 SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o) {
   require_positive("ii_normals: k_R", o.k_R);
   const double h = set.h();
   SurfelNormals out;
-  out.length_scale = o.length_scale;
-  if (o.length_scale != 0) {
-    require_positive("ii_normals: length_scale", o.length_scale);
-  } else {
-    const LengthScale measured = length_scale(set, surfels, {LengthScaleOptions{}.k_R, o.length_quantile});
-    out.length_scale = measured.length;
-    out.surface_length_scales = measured.per_contour;
-    for (double& l_c : out.surface_length_scales)  // a surface too small to be sampled: the set's l
-      if (!(l_c > 0)) l_c = out.length_scale;
-  }
+  set_length_scale("ii_normals", set, surfels, o, out);
   out.radius = o.k_R * std::cbrt(h) * std::pow(out.length_scale, 2.0 / 3.0);
   const double rho = out.radius / h;
   const double diameter = 2 * std::cbrt(3.0 * static_cast<double>(set.voxel_count()) / (4 * kPi)) + 2;
@@ -77,9 +85,18 @@ SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const Su
 }
 
 SurfelNormals exact_normals(const Surface& surface, const SurfelSet& surfels, double length_scale) {
-  require_positive("exact_normals: length_scale", length_scale);
+  SurfaceNormalOptions o;
+  o.length_scale = length_scale;
+  if (length_scale != 0) {
+    require_positive("exact_normals: length_scale", length_scale);
+    return exact_normals(surface, VoxelSet(surfels.h), surfels, o);  // l given: the set is not read
+  }
+  return exact_normals(surface, digitize(surface, surfels.h), surfels, o);
+}
+
+SurfelNormals exact_normals(const Surface& surface, const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o) {
   SurfelNormals out;
-  out.length_scale = length_scale;
+  set_length_scale("exact_normals", set, surfels, o, out);
   out.normals.resize(static_cast<Eigen::Index>(surfels.size()), 3);
 #pragma omp parallel for schedule(dynamic, 256)
   for (std::size_t s = 0; s < surfels.size(); ++s)

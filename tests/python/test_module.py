@@ -316,6 +316,10 @@ def test_surface_pipeline_in_python(tmp_path):
     lap = 2 - 2 * n[:, 0] ** 2 - 4 * q[:, 0] * n[:, 0]
     error = np.abs(op.L @ q[:, 0] ** 2 - lap).max() / np.abs(lap).max()
     assert abs(100 * error - 27.8) < 0.1  # the reference implementation's figure (issue 13)
+    exact = surface.exact_normals(sphere, surfels)  # l measured as the II normals measure it
+    assert exact.length_scale == surface.ii_normals(voxels, surfels).length_scale
+    assert np.allclose(np.linalg.norm(exact.normals, axis=1), 1.0)
+    assert np.all(np.einsum("ij,ij->i", exact.normals, q) > 0)  # outward
     spectrum = surface.smallest_eigenpairs(op, 4)
     assert np.allclose(spectrum.laplace_beltrami[1:4], 2.0, rtol=0.05)  # l = 1 at h = 0.1: 3.5% low measured
     faired = surface.smooth_positions(op, tau=5 * op.t)

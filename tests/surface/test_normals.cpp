@@ -62,6 +62,25 @@ TEST(SurfaceNormals, ExactNormalsAreTheSurfacesAtTheClosestPoints) {
   }
 }
 
+// Without a length scale the exact normals measure it as the II normals do (issue 21), so that
+// both give the same heat time: the same l and per-surface l_c, from the set or from the
+// surface's own digitization.
+TEST(SurfaceNormals, ExactNormalsMeasureTheLengthScaleLikeTheIIOnes) {
+  const auto s = posed(make_surface("ellipsoid"));
+  const VoxelSet v = digitize(*s, 0.08);
+  const SurfelSet f = extract_surfels(v);
+  const SurfelNormals ii = ii_normals(v, f), from_set = exact_normals(*s, v, f, {}), own = exact_normals(*s, f);
+  EXPECT_GT(ii.length_scale, 0.0);
+  EXPECT_EQ(from_set.length_scale, ii.length_scale);
+  EXPECT_EQ(own.length_scale, ii.length_scale);
+  EXPECT_EQ(own.surface_length_scales, ii.surface_length_scales);
+  EXPECT_EQ(own.normals, exact_normals(*s, f, 1.0).normals);  // l changes nothing but l
+  SurfaceNormalOptions given;
+  given.length_scale = 0.7;
+  EXPECT_EQ(exact_normals(*s, v, f, given).length_scale, 0.7);
+  EXPECT_TRUE(exact_normals(*s, v, f, given).surface_length_scales.empty());
+}
+
 TEST(SurfaceNormals, BadRadiiAndLengthScalesAreRefused) {
   const VoxelSet v = digitize(Sphere(), 0.2);
   const SurfelSet f = extract_surfels(v);
@@ -69,5 +88,6 @@ TEST(SurfaceNormals, BadRadiiAndLengthScalesAreRefused) {
   EXPECT_THROW(ii_normals(v, f, {std::nan(""), 1.0}), Error);
   EXPECT_THROW(ii_normals(v, f, {1.0, -1.0}), Error);
   EXPECT_THROW(ii_normals(v, f, {50.0, 1.0}), Error);  // a ball wider than the whole set
-  EXPECT_THROW(exact_normals(Sphere(), f, 0.0), Error);
+  EXPECT_THROW(exact_normals(Sphere(), f, -1.0), Error);
+  EXPECT_THROW(exact_normals(Sphere(), f, std::nan("")), Error);
 }

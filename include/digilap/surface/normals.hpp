@@ -39,8 +39,15 @@ struct SurfaceNormalOptions {
 /// ball wider than the whole set.
 SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& options = {});
 
-/// The exact outward normals at the surfel centres' closest points; length scale as given
-/// (`length_scale`, required > 0 here).
-SurfelNormals exact_normals(const Surface& surface, const SurfelSet& surfels, double length_scale);
+/// The exact outward normals at the surfel centres' closest points (separates the estimator's
+/// error from the operator's). Their length scale is `length_scale` if > 0, else the one
+/// length_scale() measures on the surface's digitization at the surfels' h: the same l (and per
+/// surface l_c) as the II normals get, so that both lead to the same t (as curve::exact_normals).
+/// Throws digilap::Error for a negative or non-finite length_scale.
+SurfelNormals exact_normals(const Surface& surface, const SurfelSet& surfels, double length_scale = 0.0);
+/// The same with the voxel set the surfels come from (no second digitization) and the II
+/// normals' options: l is options.length_scale, or measured at options.length_quantile.
+SurfelNormals exact_normals(const Surface& surface, const VoxelSet& set, const SurfelSet& surfels,
+                            const SurfaceNormalOptions& options);
 
 }  // namespace digilap::surface
