@@ -66,6 +66,9 @@ void bind_surface(py::module_& m, py::module_& s) {
       .def("normal", &surface::Surface::normal, py::arg("on_surface"), "Outward unit normal at a point of the surface.")
       .def("mean_curvature", &surface::Surface::mean_curvature, py::arg("on_surface"), "H = (k1 + k2) / 2 (1 / r on a sphere).")
       .def("set_pose", &surface::Surface::set_pose, py::arg("centre"), py::arg("rotation"), "x -> rotation x + centre.");
+  s.def("make_surface", [](const std::string& spec) { return std::shared_ptr<surface::Surface>(surface::make_surface(spec)); },
+        py::arg("spec"), "A reference surface by name with its parameters ('sphere:r=2', 'torus:R=1,r=0.4').");
+  s.def("surface_names", &surface::surface_names, "The names make_surface knows.");
   py::class_<surface::Sphere, surface::Surface, std::shared_ptr<surface::Sphere>>(s, "Sphere").def(py::init<double>(), py::arg("r") = 1.0);
   py::class_<surface::Ellipsoid, surface::Surface, std::shared_ptr<surface::Ellipsoid>>(s, "Ellipsoid")
       .def(py::init<double, double, double>(), py::arg("a") = 1.2, py::arg("b") = 1.0, py::arg("c") = 0.8);

@@ -1,5 +1,8 @@
 #include "options.hpp"
 
+#include "digilap/surface/shapes.hpp"
+
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -25,7 +28,7 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_option("--shape", o.shape,
                  "Reference shape, with its own parameters after a colon (keys not given keep these defaults):\n" +
                      shape_syntax() + "e.g. --shape flower:R=1.5,v=0.3,k=4\n"
-                     "digilap-spectrum also takes the surfaces sphere:r=1, ellipsoid:a=1.2,b=1,c=0.8, torus:R=1,r=0.4 (SPEC 7)")
+                     "digilap-spectrum also takes the surfaces (SPEC 7):\n" + surface::surface_syntax())
       ->capture_default_str();
   app.add_option("--rotate", o.rotate_degrees, "Rotate the shape by this angle (degrees, counter-clockwise)")
       ->capture_default_str();
@@ -107,7 +110,8 @@ std::string per_contour_note(const std::vector<double>& contour_t) {
 
 bool is_surface_input(const FrontEndOptions& o) {
   const std::string name = o.shape.substr(0, o.shape.find(':'));
-  return !o.volume.empty() || name == "sphere" || name == "ellipsoid" || name == "torus";
+  const std::vector<std::string> surfaces = surface::surface_names();
+  return !o.volume.empty() || std::find(surfaces.begin(), surfaces.end(), name) != surfaces.end();
 }
 
 void check_options_for_input(const CLI::App& app, const FrontEndOptions& o) {

@@ -216,14 +216,53 @@ std::vector<double> Torus::local_crossings(const Eigen::Vector3d& q0, const Eige
 
 // --- By name ----------------------------------------------------------------------------------
 
+namespace {
+// The table of make_surface(), surface_names() and surface_syntax(): names, keys, defaults.
+struct SurfaceKind {
+  const char* name;
+  std::vector<std::pair<const char*, double>> keys;  // SPEC §7's reference parameters
+};
+const std::vector<SurfaceKind>& surface_kinds() {
+  static const std::vector<SurfaceKind> kinds = {
+      {"sphere", {{"r", 1.0}}},
+      {"ellipsoid", {{"a", 1.2}, {"b", 1.0}, {"c", 0.8}}},
+      {"torus", {{"R", 1.0}, {"r", 0.4}}},
+  };
+  return kinds;
+}
+}  // namespace
+
+std::vector<std::string> surface_names() {
+  std::vector<std::string> names;
+  for (const SurfaceKind& kind : surface_kinds()) names.emplace_back(kind.name);
+  return names;
+}
+
+std::string surface_syntax() {
+  std::string text;
+  for (const SurfaceKind& kind : surface_kinds()) {
+    text += std::string(kind.name) + ":";
+    for (std::size_t i = 0; i < kind.keys.size(); ++i) {
+      std::ostringstream v;
+      v << kind.keys[i].second;
+      text += std::string(i ? "," : "") + kind.keys[i].first + "=" + v.str();
+    }
+    text += "\n";
+  }
+  return text;
+}
+
 std::unique_ptr<Surface> make_surface(const std::string& spec) {
   const std::size_t colon = spec.find(':');
   const std::string name = spec.substr(0, colon);
-  std::vector<std::pair<std::string, double>> value;  // SPEC §7's reference parameters
-  if (name == "sphere") value = {{"r", 1.0}};
-  else if (name == "ellipsoid") value = {{"a", 1.2}, {"b", 1.0}, {"c", 0.8}};
-  else if (name == "torus") value = {{"R", 1.0}, {"r", 0.4}};
-  else throw Error("unknown surface '" + name + "' (known surfaces: sphere, ellipsoid, torus)");
+  std::vector<std::pair<std::string, double>> value;
+  for (const SurfaceKind& kind : surface_kinds())
+    if (name == kind.name) value.assign(kind.keys.begin(), kind.keys.end());
+  if (value.empty()) {
+    std::string known;
+    for (const std::string& n : surface_names()) known += (known.empty() ? "" : ", ") + n;
+    throw Error("unknown surface '" + name + "' (known surfaces: " + known + ")");
+  }
   if (colon != std::string::npos) detail::read_shape_parameters(name, spec.substr(colon + 1), value);
   auto get = [&](const char* key) { return detail::parameter(value, key); };
   if (name == "sphere") return std::make_unique<Sphere>(get("r"));

@@ -316,6 +316,8 @@ def test_surface_pipeline_in_python(tmp_path):
     lap = 2 - 2 * n[:, 0] ** 2 - 4 * q[:, 0] * n[:, 0]
     error = np.abs(op.L @ q[:, 0] ** 2 - lap).max() / np.abs(lap).max()
     assert abs(100 * error - 27.8) < 0.1  # the reference implementation's figure (issue 13)
+    assert surface.surface_names() == ["sphere", "ellipsoid", "torus"]
+    assert surface.make_surface("sphere:r=2").name == "sphere" and abs(surface.make_surface("sphere:r=2").area() - 16 * np.pi) < 1e-9
     exact = surface.exact_normals(sphere, surfels)  # l measured as the II normals measure it
     assert exact.length_scale == surface.ii_normals(voxels, surfels).length_scale
     assert np.allclose(np.linalg.norm(exact.normals, axis=1), 1.0)

@@ -1,6 +1,7 @@
 // surface/shapes.hpp: the reference surfaces' closest points, normals, curvatures and areas
 // against brute force and closed forms, and the surface factory's refusals.
 #include "digilap/surface/shapes.hpp"
+#include "error_of.hpp"
 #include "support.hpp"
 
 #include <gtest/gtest.h>
@@ -38,7 +39,12 @@ TEST(Surface, ReferenceSurfacesHaveExactGeometry) {
   EXPECT_NEAR(Torus(1, 0.4).area(), 4 * kPi * kPi * 0.4, 1e-12);
   EXPECT_THROW(Torus(0.4, 1), Error);
   EXPECT_THROW(Sphere(-1), Error);
-  EXPECT_THROW(make_surface("cube"), Error);
+  EXPECT_NE(error_of([] { make_surface("cube"); }).find("known surfaces: sphere, ellipsoid, torus"), std::string::npos);
+  // One table behind the factory, the names and the syntax (the apps' --help).
+  EXPECT_EQ(surface_names(), (std::vector<std::string>{"sphere", "ellipsoid", "torus"}));
+  EXPECT_EQ(surface_syntax(), "sphere:r=1\nellipsoid:a=1.2,b=1,c=0.8\ntorus:R=1,r=0.4\n");
+  for (const std::string& name : surface_names()) EXPECT_EQ(make_surface(name)->name(), name);
+  EXPECT_NEAR(make_surface("torus:r=0.25")->area(), 4 * kPi * kPi * 0.25, 1e-12);  // R keeps its default 1
   EXPECT_THROW(make_surface("sphere:q=1"), Error);
   EXPECT_THROW(sphere.closest_point({NAN, 0, 0}), Error);
 }

@@ -111,6 +111,11 @@ private:
 
 /// The reference surfaces by name ("sphere", "ellipsoid", "torus"), with their own parameters
 /// after a colon as for curves ("sphere:r=2", "ellipsoid:a=1.2,b=1,c=0.8", "torus:R=1,r=0.4").
+/// Throws digilap::Error for an unknown name or key (listing the known ones), as make_shape().
 std::unique_ptr<Surface> make_surface(const std::string& spec);
+/// The names make_surface() knows, and one line per surface with its keys and their defaults
+/// (SPEC §7's reference parameters; for --help), as curve::shape_names() and shape_syntax().
+std::vector<std::string> surface_names();
+std::string surface_syntax();
 
 }  // namespace digilap::surface
