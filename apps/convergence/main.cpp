@@ -8,6 +8,7 @@
 #include "digilap/surface/ground_truth.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -114,7 +115,8 @@ int surface_convergence(const std::string& spec, const std::string& function, st
 
 bool names_a_surface(const std::string& spec) {
   const std::string name = spec.substr(0, spec.find(':'));
-  return name == "sphere" || name == "ellipsoid" || name == "torus";
+  const std::vector<std::string> surfaces = surface::surface_names();
+  return std::find(surfaces.begin(), surfaces.end(), name) != surfaces.end();
 }
 
 }  // namespace

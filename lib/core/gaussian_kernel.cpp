@@ -3,6 +3,7 @@
 // compute-bound and a memory-bound assembly. libmvec's exp is accurate to 4 ulp. This file holds
 // nothing else, so fast-math changes no other arithmetic: no reduction, no NaN test here (the
 // inputs are finite, non-negative squared distances checked upstream).
+#include "cpu.hpp"
 #include "gaussian_kernel.hpp"
 
 #include <algorithm>
@@ -16,7 +17,7 @@ constexpr int kChunk = 64;  // a multiple of every vector width: no scalar prolo
 
 // Two versions, chosen at load time by the CPU: AVX2 (4 exp per libmvec call) and baseline
 // x86-64 (SSE2, 2 per call). Each CPU always runs the same one, so results stay reproducible.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if DIGILAP_X86_64_GCC
 __attribute__((target_clones("avx2", "default")))
 #endif
 void weights_of_chunk(double* chunk, double inv_4t, double scale) {

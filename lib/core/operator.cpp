@@ -55,4 +55,15 @@ void check_massless_reach_mass(const HeatOperator& op, const std::vector<Eigen::
 }
 }  // namespace detail
 
+namespace detail {
+SparseMatrix diagonal_matrix(const Eigen::VectorXd& mass) {
+  const Eigen::Index n = mass.size();
+  SparseMatrix M(n, n);
+  M.reserve(Eigen::VectorXi::Ones(n));
+  for (Eigen::Index r = 0; r < n; ++r) M.insert(r, r) = mass[r];
+  M.makeCompressed();
+  return M;
+}
+}  // namespace detail
+
 }  // namespace digilap

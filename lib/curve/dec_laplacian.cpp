@@ -45,10 +45,7 @@ ContourOperator dec_laplacian(const ContourSet& contours, const Measures& measur
   op.L.setFromTriplets(tl.begin(), tl.end());
   op.A.resize(n, n);
   op.A.setFromTriplets(ta.begin(), ta.end());
-  op.M.resize(n, n);
-  op.M.reserve(Eigen::VectorXi::Ones(n));
-  for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = mass[r];
-  op.M.makeCompressed();
+  op.M = detail::diagonal_matrix(mass);
   op.mass = mass;
   op.positions = e.positions;
   op.arclength = e.s;

@@ -266,10 +266,7 @@ ContourOperator assemble(const ContourSet& contours, const Measures& measures, c
       }
     }
   }
-  op.M.resize(n, n);
-  op.M.reserve(Eigen::VectorXi::Ones(n));
-  for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = e.mu[r];
-  op.M.makeCompressed();
+  op.M = detail::diagonal_matrix(e.mu);
   return op;
 }
 }  // namespace

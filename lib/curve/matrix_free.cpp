@@ -6,6 +6,7 @@
 #include "digilap/core/constants.hpp"
 
 #include "digilap/core/error.hpp"
+#include "core/cpu.hpp"
 #include "core/eigen_checks.hpp"
 #include "elements.hpp"
 #include "cyclic_tridiagonal.hpp"
@@ -55,11 +56,7 @@ using Quad = double __attribute__((vector_size(32)));
 
 // The kernels are also built for AVX2 + FMA (x86-64 with GCC), used when the CPU has both;
 // DIGILAP_PLAIN_KERNELS=1 in the environment keeps the plain ones (to compare the two).
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define DIGILAP_WIDE_KERNELS 1
-#else
-#define DIGILAP_WIDE_KERNELS 0
-#endif
+#define DIGILAP_WIDE_KERNELS DIGILAP_X86_64_GCC
 bool cpu_takes_wide_kernels() {
 #if DIGILAP_WIDE_KERNELS
   const char* plain = std::getenv("DIGILAP_PLAIN_KERNELS");

@@ -115,10 +115,7 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
   }
   if (mismatch)
     throw Error("heat_laplacian (surfaces): a row found another number of neighbours than it counted (internal error)");
-  op.M.resize(n, n);
-  op.M.reserve(Eigen::VectorXi::Ones(n));
-  for (Eigen::Index r = 0; r < n; ++r) op.M.insert(r, r) = op.mass[r];
-  op.M.makeCompressed();
+  op.M = digilap::detail::diagonal_matrix(op.mass);
   return op;
 }
 

@@ -57,6 +57,8 @@ struct HeatOperator {
 double heat_laplacian_bytes(std::size_t nonzeros, std::size_t rows, bool stiffness = true);
 
 namespace detail {
+/// M = diag(mass), in compressed storage: the mass matrix of every operator.
+SparseMatrix diagonal_matrix(const Eigen::VectorXd& mass);
 /// The one memory check of every assembled operator, before anything is allocated: refuses an
 /// estimated size above `limit` bytes, or 2^31 nonzeros or more (the compressed rows' offsets are
 /// int). `who` starts the message ("heat_laplacian", "heat_laplacian (surfaces)"); `advice`
