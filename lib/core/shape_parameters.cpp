@@ -37,4 +37,14 @@ double parameter(const std::vector<std::pair<std::string, double>>& parameters, 
   return std::find_if(parameters.begin(), parameters.end(), [&](const auto& p) { return p.first == key; })->second;
 }
 
+std::string syntax_line(const char* name, const std::vector<std::pair<const char*, double>>& keys) {
+  std::string text = std::string(name) + ":";
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    std::ostringstream v;
+    v << keys[i].second;
+    text += std::string(i ? "," : "") + keys[i].first + "=" + v.str();
+  }
+  return text + "\n";
+}
+
 }  // namespace digilap::detail

@@ -14,6 +14,8 @@ namespace digilap::detail {
 /// given twice.
 void read_shape_parameters(const std::string& shape, const std::string& list, std::vector<std::pair<std::string, double>>& parameters);
 
+/// One line of --help: "name:key=default,key=default\n" (shape_syntax(), surface_syntax()).
+std::string syntax_line(const char* name, const std::vector<std::pair<const char*, double>>& keys);
 /// The value of `key` in `parameters` (which holds it).
 double parameter(const std::vector<std::pair<std::string, double>>& parameters, const std::string& key);
 

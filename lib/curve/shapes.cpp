@@ -395,13 +395,7 @@ std::unique_ptr<Shape> make_shape(const std::string& spec) {
 std::string shape_syntax() {
   std::string text;
   for (const ShapeKind& kind : shape_kinds()) {
-    text += std::string(kind.name) + ":";
-    for (std::size_t i = 0; i < kind.keys.size(); ++i) {
-      std::ostringstream v;
-      v << kind.keys[i].second;
-      text += std::string(i ? "," : "") + kind.keys[i].first + "=" + v.str();
-    }
-    text += "\n";
+    text += detail::syntax_line(kind.name, kind.keys);
   }
   return text;
 }

@@ -241,13 +241,7 @@ std::vector<std::string> surface_names() {
 std::string surface_syntax() {
   std::string text;
   for (const SurfaceKind& kind : surface_kinds()) {
-    text += std::string(kind.name) + ":";
-    for (std::size_t i = 0; i < kind.keys.size(); ++i) {
-      std::ostringstream v;
-      v << kind.keys[i].second;
-      text += std::string(i ? "," : "") + kind.keys[i].first + "=" + v.str();
-    }
-    text += "\n";
+    text += detail::syntax_line(kind.name, kind.keys);
   }
   return text;
 }
