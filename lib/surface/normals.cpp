@@ -37,9 +37,6 @@ Eigen::Vector3d covariance_normal(const Moments& mo, const Eigen::Vector3d& cent
   return normal;
 }
 
-}  // namespace
-
-namespace {
 // l (and each surface's l_c) given or measured on the set: the same for II and exact normals.
 void set_length_scale(const char* who, const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o,
                       SurfelNormals& out) {
@@ -87,11 +84,8 @@ SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const Su
 SurfelNormals exact_normals(const Surface& surface, const SurfelSet& surfels, double length_scale) {
   SurfaceNormalOptions o;
   o.length_scale = length_scale;
-  if (length_scale != 0) {
-    require_positive("exact_normals: length_scale", length_scale);
-    return exact_normals(surface, VoxelSet(surfels.h), surfels, o);  // l given: the set is not read
-  }
-  return exact_normals(surface, digitize(surface, surfels.h), surfels, o);
+  // l given: the set is not read (set_length_scale checks l), so an empty one will do.
+  return exact_normals(surface, length_scale != 0 ? VoxelSet(surfels.h) : digitize(surface, surfels.h), surfels, o);
 }
 
 SurfelNormals exact_normals(const Surface& surface, const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o) {
