@@ -4,7 +4,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/setup.sh
-cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDIGILAP_SANITIZE=ON -DDIGILAP_BUILD_BENCH=OFF -DDIGILAP_PYTHON=OFF \
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo -DDIGILAP_SANITIZE=ON -DDIGILAP_BUILD_BENCH=OFF -DDIGILAP_PYTHON=OFF -DDIGILAP_MPI=OFF \
   > build-asan.log 2>&1 || { cat build-asan.log; exit 1; }
 cmake --build build-asan -j"$(nproc)" >> build-asan.log 2>&1 || { tail -50 build-asan.log; exit 1; }
 mkdir -p build-asan/test-data && cp -f build/test-data/horse.png build-asan/test-data/ 2>/dev/null || true

@@ -37,6 +37,8 @@ endfunction()
 check_layer(core "core" "core")
 check_layer(curve "core|curve" "core|curve")
 check_layer(surface "core|surface" "core|surface")
+# The distributed layer sits above surfaces (it distributes their pipeline).
+check_layer(mpi "core|surface|mpi" "core|surface|mpi")
 if(count LESS 60)
   message(FATAL_ERROR "layering: found only ${count} files in the three layers under ${SOURCE_DIR}")
 endif()

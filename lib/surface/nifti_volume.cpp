@@ -122,11 +122,13 @@ std::string spacing_text(double dx, double dy, double dz, int units) {
 // (nifti_read_buffer): a NaN would become background and an Inf above the threshold would be
 // dropped. Float data is therefore read here, through zlib (plain and gzipped files alike) and
 // byte-swapped as nifticlib does; the buffer is malloc'ed because nifti_image_free frees it.
-bool read_float_data(const std::string& path, nifti_image& nim, std::size_t bytes) {
+// `skip` bytes of the data are skipped first (a slab of planes: read_volume_slab).
+bool read_data(const std::string& path, nifti_image& nim, std::size_t skip, std::size_t bytes) {
   gzFile file = gzopen(path.c_str(), "rb");
   if (file == nullptr) return false;
   void* data = std::malloc(std::max<std::size_t>(bytes, 1));
-  bool ok = data != nullptr && gzseek(file, static_cast<z_off_t>(nim.iname_offset), SEEK_SET) == nim.iname_offset;
+  const auto start = static_cast<z_off_t>(nim.iname_offset + static_cast<std::int64_t>(skip));
+  bool ok = data != nullptr && gzseek(file, start, SEEK_SET) == start;
   for (std::size_t at = 0; ok && at < bytes;) {
     const auto chunk = static_cast<unsigned>(std::min<std::size_t>(bytes - at, std::size_t{1} << 30));
     const int got = gzread(file, static_cast<char*>(data) + at, chunk);
@@ -140,8 +142,9 @@ bool read_float_data(const std::string& path, nifti_image& nim, std::size_t byte
   }
   if (nim.byteorder != nifti_short_order()) {
     const auto count = static_cast<std::int64_t>(bytes / static_cast<std::size_t>(nim.nbyper));
-    if (nim.nbyper == 4) nifti_swap_4bytes(count, data);
-    else nifti_swap_8bytes(count, data);
+    if (nim.nbyper == 2) nifti_swap_2bytes(count, data);
+    else if (nim.nbyper == 4) nifti_swap_4bytes(count, data);
+    else if (nim.nbyper == 8) nifti_swap_8bytes(count, data);
   }
   nim.data = data;
   return true;
@@ -161,8 +164,9 @@ struct NiftiGrid {
   double h = 1, slope = 1, inter = 0;
   bool scaled = false;
   std::string path;
+  std::int64_t plane0 = 0;  // the first plane held in nim->data (a slab: read_volume_slab)
   double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
-    const double raw = stored_value(*nim, static_cast<std::size_t>((k * ny + j) * nx + i));
+    const double raw = stored_value(*nim, static_cast<std::size_t>(((k - plane0) * ny + j) * nx + i));
     // NaN is no label and compares false with every threshold: silently background, a hole in
     // the object. Refused as the .npy reader refuses it (Inf is a value: above any threshold).
     if (std::isnan(raw)) detail::refuse_nan_voxel(path, i, j, k);
@@ -170,7 +174,8 @@ struct NiftiGrid {
   }
 };
 
-NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
+// The header read and checked; the data loaded unless load is false.
+NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o, bool load = true) {
   if (!(ends_with(path, ".nii") || ends_with(path, ".nii.gz")))
     refuse(path, "a NIfTI volume is read from a .nii or .nii.gz file");
   if (!(o.h == 0 || (o.h > 0 && std::isfinite(o.h)))) require_positive("read_nifti_volume: h", o.h);
@@ -227,9 +232,11 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
                      " bytes from byte " + std::to_string(nim->iname_offset) + ", the file has " +
                      std::to_string(file_size));
   const bool floating = nim->datatype == DT_FLOAT32 || nim->datatype == DT_FLOAT64;
-  const bool loaded = floating ? read_float_data(path, *nim, static_cast<std::size_t>(voxels) * static_cast<std::size_t>(nim->nbyper))
-                               : nifti_image_load(nim.get()) == 0 && nim->data != nullptr;
-  if (!loaded) refuse(path, "truncated or unreadable voxel data");
+  if (load) {
+    const bool loaded = floating ? read_data(path, *nim, 0, static_cast<std::size_t>(voxels) * static_cast<std::size_t>(nim->nbyper))
+                                 : nifti_image_load(nim.get()) == 0 && nim->data != nullptr;
+    if (!loaded) refuse(path, "truncated or unreadable voxel data");
+  }
   // Scaled values, as NIfTI readers report them, when the file gives a slope.
   const double slope = nim->scl_slope, inter = nim->scl_inter;
   const bool scaled = slope != 0 && std::isfinite(slope) && std::isfinite(inter) && !(slope == 1 && inter == 0);
@@ -241,6 +248,27 @@ NiftiGrid open_nifti(const std::string& path, const VolumeOptions& o) {
   return grid;
 }
 }  // namespace
+
+namespace detail {
+VolumeInfo nifti_volume_info(const std::string& path, const VolumeOptions& o) {
+  const NiftiGrid grid = open_nifti(path, o, false);
+  return {grid.nx, grid.ny, grid.nz, grid.h};
+}
+
+// Planes [k_begin, k_end) only: one block of bytes (the planes are contiguous in NIfTI), read
+// through zlib (a .nii.gz is inflated up to the slab's end: prefer .nii for many ranks).
+VoxelSet read_nifti_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& o) {
+  NiftiGrid grid = open_nifti(path, o, false);
+  k_begin = std::clamp<std::int64_t>(k_begin, 0, grid.nz), k_end = std::clamp<std::int64_t>(k_end, k_begin, grid.nz);
+  const auto plane_bytes = static_cast<std::size_t>(grid.nx * grid.ny) * static_cast<std::size_t>(grid.nim->nbyper);
+  if (!read_data(path, *grid.nim, static_cast<std::size_t>(k_begin) * plane_bytes, static_cast<std::size_t>(k_end - k_begin) * plane_bytes))
+    refuse(path, "truncated or unreadable voxel data");
+  grid.plane0 = k_begin;
+  return voxel_set_from_grid(grid.h, grid.nx, grid.ny, k_end - k_begin, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return is_foreground(o, grid(i, j, k));
+  }, k_begin);
+}
+}  // namespace detail
 
 VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& o) {
   const NiftiGrid grid = open_nifti(path, o);
@@ -259,6 +287,18 @@ std::vector<LabelVoxels> read_nifti_labels(const std::string& path, const Volume
 std::vector<LabelVoxels> read_labels(const std::string& path, const VolumeOptions& options) {
   if (ends_with(path, ".npy")) return read_npy_labels(path, options);
   if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) return read_nifti_labels(path, options);
+  throw Error("cannot read volume '" + path + "': unknown extension (.npy, .nii or .nii.gz)");
+}
+
+VolumeInfo read_volume_info(const std::string& path, const VolumeOptions& options) {
+  if (ends_with(path, ".npy")) return detail::npy_volume_info(path, options);
+  if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) return detail::nifti_volume_info(path, options);
+  throw Error("cannot read volume '" + path + "': unknown extension (.npy, .nii or .nii.gz)");
+}
+
+VoxelSet read_volume_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& options) {
+  if (ends_with(path, ".npy")) return detail::read_npy_slab(path, k_begin, k_end, options);
+  if (ends_with(path, ".nii") || ends_with(path, ".nii.gz")) return detail::read_nifti_slab(path, k_begin, k_end, options);
   throw Error("cannot read volume '" + path + "': unknown extension (.npy, .nii or .nii.gz)");
 }
 

@@ -53,6 +53,23 @@ void set_length_scale(const char* who, const VoxelSet& set, const SurfelSet& sur
 }
 }  // namespace
 
+namespace detail {
+Eigen::MatrixX3d ii_normals_at(const VoxelSet& set, const SurfelSet& surfels, double rho) {
+  Eigen::MatrixX3d normals(static_cast<Eigen::Index>(surfels.size()), 3);
+#pragma omp parallel for schedule(dynamic, 256)
+  for (std::size_t s = 0; s < surfels.size(); ++s) {
+    const Surfel& f = surfels.surfels[s];
+    const auto c = doubled_centre(f);
+    const Eigen::Vector3d offset(0.5 * static_cast<double>(c[0]) - static_cast<double>(floor_half(c[0])),
+                                 0.5 * static_cast<double>(c[1]) - static_cast<double>(floor_half(c[1])),
+                                 0.5 * static_cast<double>(c[2]) - static_cast<double>(floor_half(c[2])));
+    normals.row(static_cast<Eigen::Index>(s)) =
+        covariance_normal(ball_moments(set, c[0], c[1], c[2], rho), offset, surfels.trivial_normal(s)).transpose();
+  }
+  return normals;
+}
+}  // namespace detail
+
 SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& o) {
   require_positive("ii_normals: k_R", o.k_R);
   const double h = set.h();
@@ -67,17 +84,7 @@ SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const Su
         << " across): the normals would carry no information; use a smaller k_R";
     throw Error(msg.str());
   }
-  out.normals.resize(static_cast<Eigen::Index>(surfels.size()), 3);
-#pragma omp parallel for schedule(dynamic, 256)
-  for (std::size_t s = 0; s < surfels.size(); ++s) {
-    const Surfel& f = surfels.surfels[s];
-    const auto c = doubled_centre(f);
-    const Eigen::Vector3d offset(0.5 * static_cast<double>(c[0]) - static_cast<double>(floor_half(c[0])),
-                                 0.5 * static_cast<double>(c[1]) - static_cast<double>(floor_half(c[1])),
-                                 0.5 * static_cast<double>(c[2]) - static_cast<double>(floor_half(c[2])));
-    out.normals.row(static_cast<Eigen::Index>(s)) =
-        covariance_normal(ball_moments(set, c[0], c[1], c[2], rho), offset, surfels.trivial_normal(s)).transpose();
-  }
+  out.normals = detail::ii_normals_at(set, surfels, rho);
   return out;
 }
 

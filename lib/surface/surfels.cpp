@@ -90,7 +90,8 @@ SurfelSet grouped_by_surface(const SurfelSet& in, const SurfelComponents& compon
 }
 }  // namespace
 
-SurfelSet extract_surfels(const VoxelSet& set) {
+namespace detail {
+SurfelSet surfels_in_row_order(const VoxelSet& set) {
   SurfelSet out;
   out.h = set.h();
   const std::int64_t nj = set.j_end() - set.j_begin(), nk = set.k_end() - set.k_begin(), rows = nj * nk;
@@ -116,6 +117,12 @@ SurfelSet extract_surfels(const VoxelSet& set) {
   for (const auto& row : per_row) total += row.size();
   out.surfels.reserve(total);
   for (const auto& row : per_row) out.surfels.insert(out.surfels.end(), row.begin(), row.end());
+  return out;
+}
+}  // namespace detail
+
+SurfelSet extract_surfels(const VoxelSet& set) {
+  const SurfelSet out = detail::surfels_in_row_order(set);
   return grouped_by_surface(out, connected_surfaces(set, out), {});
 }
 

@@ -109,25 +109,37 @@ NpyHeader parse_header(const std::string& name, const std::uint8_t* bytes, std::
 }  // namespace
 
 namespace {
-// The whole .npy file in memory, its header checked against the limit before the data is read.
-std::vector<std::uint8_t> npy_bytes(const std::string& path, const VolumeOptions& o) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
+// The first bytes of a .npy file (its header: at most 1 MiB + 12) and the file's size, the size
+// the header declares checked against the limit and the file before any voxel is read.
+struct NpyHead {
+  std::vector<std::uint8_t> bytes;
+  std::uint64_t file_size = 0;
+};
+NpyHead npy_head(std::ifstream& in, const std::string& path, const VolumeOptions& o) {
   if (!in) throw Error("cannot read volume '" + path + "': cannot open the file (does it exist and is it readable?)");
-  const auto file_size = static_cast<std::uint64_t>(in.tellg());
-  // The header first: the size it declares is checked against the limit before reading more.
-  std::vector<std::uint8_t> head(static_cast<std::size_t>(std::min<std::uint64_t>(file_size, (1u << 20) + 12)));
+  in.seekg(0, std::ios::end);
+  NpyHead out;
+  out.file_size = static_cast<std::uint64_t>(in.tellg());
+  out.bytes.resize(static_cast<std::size_t>(std::min<std::uint64_t>(out.file_size, (1u << 20) + 12)));
   in.seekg(0);
-  in.read(reinterpret_cast<char*>(head.data()), static_cast<std::streamsize>(head.size()));
-  const NpyHeader header = parse_header(path, head.data(), head.size());
+  in.read(reinterpret_cast<char*>(out.bytes.data()), static_cast<std::streamsize>(out.bytes.size()));
+  const NpyHeader header = parse_header(path, out.bytes.data(), out.bytes.size());
   double voxels = 1;
   for (std::int64_t d : header.shape) voxels *= static_cast<double>(d);
   if (header.shape.size() == 3 && voxels > static_cast<double>(o.max_voxels))
     throw Error("cannot read volume '" + path + "': its " + detail::count_text(voxels) +
                 " voxels are above the limit of " + std::to_string(o.max_voxels));
   const std::size_t declared = npy_dtype(header.descr).size, item = declared > 0 ? declared : 8;  // 8: the largest, when unknown
-  if (static_cast<double>(file_size) > static_cast<double>(header.data_offset) + static_cast<double>(item) * std::max(voxels, 0.0) + 16)
-    throw Error("cannot read volume '" + path + "': the file holds " + std::to_string(file_size) +
+  if (static_cast<double>(out.file_size) > static_cast<double>(header.data_offset) + static_cast<double>(item) * std::max(voxels, 0.0) + 16)
+    throw Error("cannot read volume '" + path + "': the file holds " + std::to_string(out.file_size) +
                 " bytes, more than its header declares (" + detail::count_text(voxels) + " voxels of '" + header.descr + "')");
+  return out;
+}
+
+// The whole .npy file in memory, its header checked against the limit before the data is read.
+std::vector<std::uint8_t> npy_bytes(const std::string& path, const VolumeOptions& o) {
+  std::ifstream in(path, std::ios::binary);
+  const std::uint64_t file_size = npy_head(in, path, o).file_size;
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(file_size));
   in.seekg(0);
   in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
@@ -144,9 +156,12 @@ struct NpyGrid {
   std::string path;
   std::int64_t nx = 0, ny = 0, nz = 0;
   double h = 1;
+  // The planes held at `data`: [plane0, plane0 + planes) of the first array axis (all of them
+  // unless a slab was read), in the array's own order.
+  std::int64_t plane0 = 0, planes = 0;
   double operator()(std::int64_t i, std::int64_t j, std::int64_t k) const {
-    const std::int64_t a = k, b = j, c = i, n0 = header.shape[0], n1 = header.shape[1], n2 = header.shape[2];
-    const std::int64_t at = header.fortran ? a + n0 * (b + n1 * c) : (a * n1 + b) * n2 + c;
+    const std::int64_t a = k - plane0, b = j, c = i, n1 = header.shape[1], n2 = header.shape[2];
+    const std::int64_t at = header.fortran ? a + planes * (b + n1 * c) : (a * n1 + b) * n2 + c;
     const auto* p = reinterpret_cast<const unsigned char*>(data) + dtype.size * static_cast<std::size_t>(at);
     std::uint64_t bits = 0;
     for (std::size_t q = 0; q < dtype.size; ++q)
@@ -170,10 +185,13 @@ struct NpyGrid {
   }
 };
 
-NpyGrid npy_grid(const std::uint8_t* bytes, std::size_t file_size, const std::string& path, const VolumeOptions& o) {
+// From the file's first `available` bytes (its header at least; the data follows it when
+// available == file_size).
+NpyGrid npy_grid(const std::uint8_t* bytes, std::size_t available, std::uint64_t file_size, const std::string& path,
+                 const VolumeOptions& o) {
   auto fail = [&](const std::string& why) -> NpyGrid { throw Error("cannot read volume '" + path + "': " + why); };
   NpyGrid g;
-  g.header = parse_header(path, bytes, file_size);
+  g.header = parse_header(path, bytes, available);
   const NpyHeader& header = g.header;
   g.dtype = npy_dtype(header.descr);
   g.path = path;
@@ -194,6 +212,7 @@ NpyGrid npy_grid(const std::uint8_t* bytes, std::size_t file_size, const std::st
   g.nx = header.shape[2], g.ny = header.shape[1], g.nz = header.shape[0];
   if (std::max({g.nx, g.ny, g.nz}) > kMaxPixelIndex) fail("a dimension is above " + std::to_string(kMaxPixelIndex));
   g.data = reinterpret_cast<const char*>(bytes) + header.data_offset;
+  g.planes = g.nz;
   g.h = o.h > 0 ? o.h : 1.0;  // voxel units by default: padding the array changes nothing (issue 25)
   return g;
 }
@@ -205,7 +224,7 @@ VoxelSet read_npy_volume(const std::string& path, const VolumeOptions& o) {
 }
 
 VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, const std::string& path, const VolumeOptions& o) {
-  const NpyGrid g = npy_grid(bytes, file_size, path, o);
+  const NpyGrid g = npy_grid(bytes, file_size, file_size, path, o);
   VoxelSet set = detail::voxel_set_from_grid(g.h, g.nx, g.ny, g.nz, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
     return detail::is_foreground(o, g(i, j, k));
   });
@@ -215,8 +234,45 @@ VoxelSet decode_npy_volume(const std::uint8_t* bytes, std::size_t file_size, con
 
 std::vector<LabelVoxels> read_npy_labels(const std::string& path, const VolumeOptions& o) {
   const std::vector<std::uint8_t> bytes = npy_bytes(path, o);
-  const NpyGrid g = npy_grid(bytes.data(), bytes.size(), path, o);
+  const NpyGrid g = npy_grid(bytes.data(), bytes.size(), bytes.size(), path, o);
   return detail::label_sets_from_grid(path, g.h, g.nx, g.ny, g.nz, g);
 }
+
+namespace detail {
+VolumeInfo npy_volume_info(const std::string& path, const VolumeOptions& o) {
+  std::ifstream in(path, std::ios::binary);
+  const NpyHead head = npy_head(in, path, o);
+  const NpyGrid g = npy_grid(head.bytes.data(), head.bytes.size(), head.file_size, path, o);
+  return {g.nx, g.ny, g.nz, g.h};
+}
+
+// Planes [k_begin, k_end) only: in C order one contiguous block (the first array axis is z), in
+// Fortran order one block of k_end - k_begin elements per (y, x) pair.
+VoxelSet read_npy_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& o) {
+  std::ifstream in(path, std::ios::binary);
+  const NpyHead head = npy_head(in, path, o);
+  NpyGrid g = npy_grid(head.bytes.data(), head.bytes.size(), head.file_size, path, o);
+  k_begin = std::clamp<std::int64_t>(k_begin, 0, g.nz), k_end = std::clamp<std::int64_t>(k_end, k_begin, g.nz);
+  const std::int64_t planes = k_end - k_begin, n1 = g.header.shape[1], n2 = g.header.shape[2];
+  const auto item = static_cast<std::int64_t>(g.dtype.size);
+  std::vector<char> data(static_cast<std::size_t>(planes * n1 * n2 * item));
+  auto read_at = [&](std::int64_t element, char* into, std::int64_t count) {
+    in.seekg(static_cast<std::streamoff>(g.header.data_offset) + static_cast<std::streamoff>(element * item));
+    in.read(into, static_cast<std::streamsize>(count * item));
+    if (in.gcount() != static_cast<std::streamsize>(count * item)) throw Error("cannot read volume '" + path + "': read error");
+  };
+  if (planes > 0 && !g.header.fortran) {
+    read_at(k_begin * n1 * n2, data.data(), planes * n1 * n2);
+  } else if (planes > 0) {
+    for (std::int64_t c = 0; c < n2; ++c)
+      for (std::int64_t b = 0; b < n1; ++b)
+        read_at(k_begin + g.nz * (b + n1 * c), data.data() + item * planes * (b + n1 * c), planes);
+  }
+  g.data = data.data(), g.plane0 = k_begin, g.planes = planes;
+  return voxel_set_from_grid(g.h, g.nx, g.ny, planes, [&](std::int64_t i, std::int64_t j, std::int64_t k) {
+    return is_foreground(o, g(i, j, k));
+  }, k_begin);
+}
+}  // namespace detail
 
 }  // namespace digilap::surface

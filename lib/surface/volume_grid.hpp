@@ -45,13 +45,15 @@ inline std::string no_foreground_reason(const VolumeOptions& o) {
   return o.label >= 0 ? "no voxel has the label " + std::to_string(o.label) : "no voxel reaches the threshold";
 }
 
-/// Voxel (i, j, k), 0 <= i < nx, ..., is in the set when inside(i, j, k); the set has step h.
-/// Two passes (count the runs of each row, then write them): the storage is the final one, at
-/// most 16 bytes per voxel of the grid whatever its shape (no list per row: issue 25).
+/// Voxel (i, j, k), 0 <= i < nx, 0 <= j < ny, k_first <= k < k_first + nz, is in the set when
+/// inside(i, j, k); the set has step h (k_first > 0: a slab of planes, volume.hpp's
+/// read_volume_slab). Two passes (count the runs of each row, then write them): the storage is
+/// the final one, at most 16 bytes per voxel of the grid whatever its shape (no list per row:
+/// issue 25).
 template <class Inside>
-VoxelSet voxel_set_from_grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz, Inside&& inside) {
+VoxelSet voxel_set_from_grid(double h, std::int64_t nx, std::int64_t ny, std::int64_t nz, Inside&& inside, std::int64_t k_first = 0) {
   auto scan = [&](std::int64_t r, auto&& emit) {
-    const std::int64_t j = r % ny, k = r / ny;
+    const std::int64_t j = r % ny, k = k_first + r / ny;
     for (std::int64_t i = 0; i < nx;) {
       if (!inside(i, j, k)) { ++i; continue; }
       std::int64_t e = i;
@@ -69,8 +71,8 @@ VoxelSet voxel_set_from_grid(double h, std::int64_t nx, std::int64_t ny, std::in
   std::vector<Run> runs(static_cast<std::size_t>(row_offset.back()));
   std::size_t at = 0;
   for (std::int64_t r = 0; r < rows; ++r) scan(r, [&](const Run& run) { runs[at++] = run; });
-  return VoxelSet::from_compressed_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(row_offset),
-                                        std::move(runs));
+  return VoxelSet::from_compressed_rows(h, 0, static_cast<std::int32_t>(k_first), static_cast<std::int32_t>(ny),
+                                        static_cast<std::int32_t>(nz), std::move(row_offset), std::move(runs));
 }
 
 /// The integer label a value stands for: the value itself, or the nearest integer when the value
@@ -110,5 +112,11 @@ std::vector<LabelVoxels> label_sets_from_grid(const std::string& path, double h,
     out.push_back({label, VoxelSet::from_rows(h, 0, 0, static_cast<std::int32_t>(ny), static_cast<std::int32_t>(nz), std::move(own))});
   return out;
 }
+
+/// The per-format halves of read_volume_info and read_volume_slab (volume.cpp, nifti_volume.cpp).
+VolumeInfo npy_volume_info(const std::string& path, const VolumeOptions& o);
+VolumeInfo nifti_volume_info(const std::string& path, const VolumeOptions& o);
+VoxelSet read_npy_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& o);
+VoxelSet read_nifti_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& o);
 
 }  // namespace digilap::surface::detail

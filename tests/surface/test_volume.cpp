@@ -349,3 +349,72 @@ TEST(Surface, BadNiftiVolumesAreRefused) {
   EXPECT_NE(error_of([] { read_volume("/nonexistent/volume.nii.gz"); }).find("cannot open"), std::string::npos);
   EXPECT_NE(error_of([] { read_nifti_volume(::testing::TempDir() + "/plain.npy"); }).find(".nii or .nii.gz"), std::string::npos);
 }
+
+// --- Slabs: planes read alone (read_volume_slab, read_volume_info) -------------------------------
+
+namespace {
+// Every voxel of `whole` with k in [k_begin, k_end), and nothing else, is in `slab`.
+void expect_planes_of(const VoxelSet& whole, const VoxelSet& slab, std::int64_t k_begin, std::int64_t k_end, int n,
+                      const std::string& name) {
+  std::int64_t expected = 0;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        const bool in_range = k >= k_begin && k < k_end;
+        expected += in_range && whole.contains(i, j, k);
+        ASSERT_EQ(slab.contains(i, j, k), in_range && whole.contains(i, j, k)) << name << " (" << i << ", " << j << ", " << k << ")";
+      }
+  EXPECT_EQ(slab.voxel_count(), expected) << name;
+}
+}  // namespace
+
+// A 20 x 22 x 24 (x, y, z) volume of an off-centre ellipsoid and a label slab, in the four layouts
+// a slab is read from (.npy C order, .npy Fortran order big-endian int16, .nii, .nii.gz float32):
+// every plane range, including empty, clipped and whole ones, gives exactly the whole volume's
+// voxels of those planes, and the header alone gives the sizes and h.
+TEST(Surface, VolumeSlabsReadOnlyTheirPlanes) {
+  const int nx = 20, ny = 22, nz = 24;
+  std::string c_order(nx * ny * nz, '\0'), f_order(2 * nx * ny * nz, '\0');
+  std::vector<float> levels(static_cast<std::size_t>(nx * ny * nz));
+  for (int k = 0; k < nz; ++k)
+    for (int j = 0; j < ny; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const double x = (i - 9.3) / 8, y = (j - 11.6) / 9, z = (k - 10.2) / 10;
+        const std::int16_t label = x * x + y * y + z * z < 1 ? 5 : (k > 20 && i < 4 ? 9 : 0);
+        c_order[static_cast<std::size_t>((k * ny + j) * nx + i)] = static_cast<char>(label);
+        const std::size_t f = static_cast<std::size_t>(k + nz * (j + ny * i));  // element [k, j, i], Fortran order
+        f_order[2 * f] = static_cast<char>(label >> 8), f_order[2 * f + 1] = static_cast<char>(label & 0xff);  // big-endian
+        levels[static_cast<std::size_t>((k * ny + j) * nx + i)] = label == 5 ? 0.8f : 0.1f;
+      }
+  NiftiSample nii;
+  nii.dim[1] = nx, nii.dim[2] = ny, nii.dim[3] = nz, nii.spacing[0] = nii.spacing[1] = nii.spacing[2] = 0.5;
+  nii.data = c_order;
+  NiftiSample gz = nii;
+  gz.version = 2, gz.datatype = DT_FLOAT32, gz.bitpix = 32, gz.data = raw(levels);
+  VolumeOptions label5;
+  label5.label = 5;
+  VolumeOptions half;
+  half.threshold = 0.5;
+  const std::vector<std::size_t> shape{static_cast<std::size_t>(nz), static_cast<std::size_t>(ny), static_cast<std::size_t>(nx)};
+  for (const auto& [path, options, h] :
+       {std::tuple{write("slab_c.npy", npy("|u1", false, shape, c_order)), VolumeOptions{}, 1.0},
+        std::tuple{write("slab_f.npy", npy(">i2", true, shape, f_order)), label5, 1.0},
+        std::tuple{write_nifti("slab.nii", nifti_bytes(nii)), VolumeOptions{}, 0.5},
+        std::tuple{write_nifti("slab.nii.gz", nifti_bytes(gz)), half, 0.5}}) {
+    const VolumeInfo info = read_volume_info(path, options);
+    EXPECT_EQ(info.nx, nx) << path;
+    EXPECT_EQ(info.ny, ny) << path;
+    EXPECT_EQ(info.nz, nz) << path;
+    EXPECT_DOUBLE_EQ(info.h, h) << path;
+    const VoxelSet whole = read_volume(path, options);
+    ASSERT_GT(whole.voxel_count(), 1000) << path;
+    for (const auto& [k_begin, k_end] : {std::pair{0, 24}, std::pair{-5, 3}, std::pair{7, 8}, std::pair{10, 17}, std::pair{20, 40},
+                                         std::pair{12, 12}, std::pair{30, 35}}) {
+      const VoxelSet slab = read_volume_slab(path, k_begin, k_end, options);
+      expect_planes_of(whole, slab, k_begin, k_end, std::max({nx, ny, nz}), path + " planes " + std::to_string(k_begin));
+      EXPECT_DOUBLE_EQ(slab.h(), whole.h());
+    }
+  }
+  EXPECT_NE(error_of([] { read_volume_slab("/nonexistent.npy", 0, 1); }).find("cannot open"), std::string::npos);
+  EXPECT_NE(error_of([] { read_volume_info("volume.raw"); }).find("unknown extension"), std::string::npos);
+}

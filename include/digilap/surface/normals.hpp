@@ -38,6 +38,12 @@ struct SurfaceNormalOptions {
 /// for any thread count. Throws digilap::Error for k_R or a given l not > 0 and finite, or a
 /// ball wider than the whole set.
 SurfelNormals ii_normals(const VoxelSet& set, const SurfelSet& surfels, const SurfaceNormalOptions& options = {});
+namespace detail {
+/// The II normals' estimate with a given ball radius rho (voxels) and no check: what ii_normals
+/// computes once R is known (the distributed pipeline, whose slab is not the whole set, checks
+/// R against the whole set itself).
+Eigen::MatrixX3d ii_normals_at(const VoxelSet& set, const SurfelSet& surfels, double rho);
+}  // namespace detail
 
 /// The exact outward normals at the surfel centres' closest points (separates the estimator's
 /// error from the operator's). Their length scale is `length_scale` if > 0, else the one

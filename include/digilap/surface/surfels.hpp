@@ -75,5 +75,12 @@ inline double enclosed_volume(const SurfelSet& surfels) { return enclosed_volume
 /// only on the set. Parallel over rows; each face found from the runs of the voxel's row and of
 /// its four neighbouring rows (no voxel loop).
 SurfelSet extract_surfels(const VoxelSet& set);
+namespace detail {
+/// The same surfels before grouping (surface_offset empty): row by row ((k, j) ascending), each
+/// row's x-faces of its runs first, then its y- and z-faces. A surfel's place among those of its
+/// row depends only on the voxels of that row and its four neighbouring rows, which is what lets
+/// a slab of planes number its surfels as the whole set does (the distributed pipeline).
+SurfelSet surfels_in_row_order(const VoxelSet& set);
+}  // namespace detail
 
 }  // namespace digilap::surface

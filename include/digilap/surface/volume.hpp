@@ -46,6 +46,22 @@ VoxelSet read_nifti_volume(const std::string& path, const VolumeOptions& options
 /// read_npy_volume or read_nifti_volume by the file's extension (.npy, .nii, .nii.gz).
 VoxelSet read_volume(const std::string& path, const VolumeOptions& options = {});
 
+/// A volume's grid from its header alone (no voxel read): voxels along x, y, z and the grid step
+/// the readers use (VolumeOptions::h rules). Throws digilap::Error as read_volume does for a bad
+/// header, size or spacing.
+struct VolumeInfo {
+  std::int64_t nx = 0, ny = 0, nz = 0;
+  double h = 1.0;
+};
+VolumeInfo read_volume_info(const std::string& path, const VolumeOptions& options = {});
+
+/// The planes k_begin <= k < k_end of a volume (clipped to [0, nz)), reading only their bytes (a
+/// hyperslab: a rank of a distributed run reads its slab, never the whole file): exactly the
+/// voxels of read_volume with k in that range, indices unchanged. An empty slab is no error (a
+/// slab may miss the object). .npy in C order and .nii read one block; .npy in Fortran order one
+/// block per (y, x) row; a .nii.gz is inflated from its start up to the slab.
+VoxelSet read_volume_slab(const std::string& path, std::int64_t k_begin, std::int64_t k_end, const VolumeOptions& options = {});
+
 /// One structure of a segmentation: its label and its voxels.
 struct LabelVoxels {
   std::int64_t label = 0;

@@ -1,0 +1,212 @@
+// mpi/surface_operator.hpp, run by mpirun on 1, 2 and 3 ranks (ctest): the distributed operator
+// equals the one-machine one row for row, bit for bit (the same columns, the same values, the same
+// areas and heat times), whatever the number of ranks; its eigenvalues equal the one-machine
+// spectrum's with each SLEPc solver. The volume is long along z, so that ranks hold different
+// slabs, with structures that cross slab boundaries, a hollow shell (two surfaces: the slabs must
+// not join its inside to its outside), and a speck for --min-size.
+#include "digilap/mpi/surface_operator.hpp"
+
+#include "digilap/core/error.hpp"
+#include "digilap/core/spectrum.hpp"
+#include "digilap/surface/heat_laplacian.hpp"
+#include "digilap/surface/volume.hpp"
+
+#include <gtest/gtest.h>
+#include <slepcsys.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <tuple>
+
+using namespace digilap;
+using namespace digilap::surface;
+
+namespace {
+
+int rank_of(MPI_Comm comm = PETSC_COMM_WORLD) {
+  int r = 0;
+  MPI_Comm_rank(comm, &r);
+  return r;
+}
+
+// The volume (32 x 32 x 128 voxels, uint8 .npy in C order), written by rank 0.
+std::string sample_volume() {
+  const std::string path = ::testing::TempDir() + "/digilap_mpi_sample.npy";
+  if (rank_of() == 0) {
+    const int nx = 32, ny = 32, nz = 128;
+    std::string data(static_cast<std::size_t>(nx * ny * nz), '\0');
+    for (int k = 0; k < nz; ++k)
+      for (int j = 0; j < ny; ++j)
+        for (int i = 0; i < nx; ++i) {
+          const double x = i, y = j, z = k;
+          const double ring = std::hypot(y - 18, z - 24) - 9;  // torus around the x axis
+          const bool torus = ring * ring + (x - 18) * (x - 18) < 3.5 * 3.5;
+          const double shell_r = std::sqrt((x - 20) * (x - 20) + (y - 20) * (y - 20) + (z - 64) * (z - 64));
+          const bool shell = shell_r < 9 && shell_r > 5;
+          const double s = std::clamp((z - 30) / 85, 0.0, 1.0);  // capsule from (4, 4, 30) to (4, 28, 115)
+          const bool capsule = std::hypot(x - 4, y - (4 + 24 * s), z - (30 + 85 * s)) < 2.5;
+          const bool ball = std::sqrt((x - 18) * (x - 18) + (y - 18) * (y - 18) + (z - 100) * (z - 100)) < 6;
+          const bool speck = i >= 28 && i < 30 && j >= 4 && j < 6 && k >= 120 && k < 122;
+          data[static_cast<std::size_t>((k * ny + j) * nx + i)] = torus || shell || capsule || ball || speck;
+        }
+    std::string dict = "{'descr': '|u1', 'fortran_order': False, 'shape': (128, 32, 32), }";
+    dict.append((64 - (10 + dict.size() + 1) % 64) % 64, ' ');
+    dict += '\n';
+    std::ofstream(path, std::ios::binary) << std::string("\x93NUMPY\x01\x00", 8) << static_cast<char>(dict.size() & 0xff)
+                                          << static_cast<char>(dict.size() >> 8) << dict << data;
+  }
+  MPI_Barrier(PETSC_COMM_WORLD);
+  return path;
+}
+
+// The one-machine pipeline of digilap-spectrum --volume: surfels, II normals, areas, operator.
+struct Serial {
+  SurfelSet surfels;
+  SurfelMeasures measures;
+  SurfaceOperator op;
+  std::map<std::tuple<int, int, int, int, int>, Eigen::Index> index;
+};
+std::tuple<int, int, int, int, int> key(const Surfel& f) { return {f.voxel.x(), f.voxel.y(), f.voxel.z(), f.axis, f.sign}; }
+Serial serial(const std::string& path, const mpi::DistributedSurfaceOptions& o) {
+  Serial s;
+  const VoxelSet voxels = read_volume(path, o.volume);
+  s.surfels = filter_surfels(voxels, extract_surfels(voxels), {o.min_surfels, o.largest_only}).surfels;
+  s.measures = measures(s.surfels, ii_normals(voxels, s.surfels, {o.k_R, o.length_scale, o.length_quantile}));
+  s.op = heat_laplacian(s.surfels, s.measures, o.op);
+  for (std::size_t q = 0; q < s.surfels.size(); ++q) s.index[key(s.surfels.surfels[q])] = static_cast<Eigen::Index>(q);
+  return s;
+}
+
+// Every rank's surfels, in global row order.
+std::vector<Surfel> all_surfels(const mpi::DistributedSurfaceOperator& d) {
+  std::vector<int> mine;
+  for (const Surfel& f : d.surfels) mine.insert(mine.end(), {f.voxel.x(), f.voxel.y(), f.voxel.z(), f.axis, f.sign});
+  int size = 1;
+  MPI_Comm_size(d.comm, &size);
+  std::vector<int> counts(static_cast<std::size_t>(size)), displs(static_cast<std::size_t>(size), 0);
+  int n = static_cast<int>(mine.size());
+  MPI_Allgather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, d.comm);
+  for (int q = 1; q < size; ++q) displs[q] = displs[q - 1] + counts[q - 1];
+  std::vector<int> flat(static_cast<std::size_t>(displs.back() + counts.back()));
+  MPI_Allgatherv(mine.data(), n, MPI_INT, flat.data(), counts.data(), displs.data(), MPI_INT, d.comm);
+  std::vector<Surfel> out;
+  for (std::size_t q = 0; q + 4 < flat.size() + 4 && q < flat.size(); q += 5)
+    out.push_back({{flat[q], flat[q + 1], flat[q + 2]}, static_cast<std::int8_t>(flat[q + 3]), static_cast<std::int8_t>(flat[q + 4])});
+  return out;
+}
+
+// Each owned row of `distributed` holds exactly the entries of the serial row of the same surfel.
+void expect_same_rows(Mat distributed, const SparseMatrix& serial_matrix, const mpi::DistributedSurfaceOperator& d, const Serial& s,
+                      const std::vector<Surfel>& global, const char* name) {
+  int mismatches = 0;
+  for (std::int64_t g = d.row_begin; g < d.row_end && mismatches < 5; ++g) {
+    const Eigen::Index row = s.index.at(key(global[static_cast<std::size_t>(g)]));
+    std::map<Eigen::Index, double> expected;
+    for (SparseMatrix::InnerIterator it(serial_matrix, row); it; ++it) expected[it.col()] = it.value();
+    PetscInt ncols;
+    const PetscInt* cols;
+    const PetscScalar* values;
+    MatGetRow(distributed, static_cast<PetscInt>(g), &ncols, &cols, &values);
+    std::map<Eigen::Index, double> got;
+    for (PetscInt c = 0; c < ncols; ++c) got[s.index.at(key(global[static_cast<std::size_t>(cols[c])]))] = values[c];
+    MatRestoreRow(distributed, static_cast<PetscInt>(g), &ncols, &cols, &values);
+    if (got != expected) {  // exact: the same doubles, bit for bit
+      ++mismatches;
+      ADD_FAILURE() << name << " row of surfel (" << global[static_cast<std::size_t>(g)].voxel.transpose() << ") differs: "
+                    << got.size() << " entries against " << expected.size();
+    }
+  }
+}
+
+struct Case {
+  const char* name;
+  std::size_t min_surfels;
+  bool largest;
+  double length_scale;
+};
+
+}  // namespace
+
+TEST(Mpi, DistributedOperatorEqualsTheSerialOneRowForRow) {
+  const std::string path = sample_volume();
+  for (const Case& c : {Case{"measured l, every surface", 0, false, 0.0}, Case{"min size 50 (the speck dropped)", 50, false, 0.0},
+                        Case{"largest only", 0, true, 0.0}, Case{"l given", 0, false, 5.0}}) {
+    SCOPED_TRACE(c.name);
+    mpi::DistributedSurfaceOptions o;
+    o.min_surfels = c.min_surfels, o.largest_only = c.largest, o.length_scale = c.length_scale;
+    const Serial s = serial(path, o);
+    const mpi::DistributedSurfaceOperator d = mpi::distributed_surface_operator(PETSC_COMM_WORLD, path, o);
+    ASSERT_EQ(d.size, static_cast<std::int64_t>(s.surfels.size()));
+    EXPECT_EQ(d.length_scale, s.measures.length_scale);
+    EXPECT_EQ(d.surface_t, s.op.part_t);  // the same surfaces, in the same order, with the same t
+    const std::vector<Surfel> global = all_surfels(d);
+    ASSERT_EQ(global.size(), s.surfels.size());
+    for (std::int64_t g = d.row_begin; g < d.row_end; ++g)
+      ASSERT_EQ(d.mu[g - d.row_begin], s.measures.mu[s.index.at(key(global[static_cast<std::size_t>(g)]))]) << "area of row " << g;
+    expect_same_rows(d.L, s.op.L, d, s, global, "L");
+    expect_same_rows(d.A, s.op.A, d, s, global, "A");
+  }
+  // The measured case has 6 surfaces (torus, the shell's two, capsule, ball, speck): a slab
+  // boundary that joined the shell's sides, or split the capsule, would change part_t above.
+  mpi::DistributedSurfaceOptions o;
+  EXPECT_EQ(mpi::distributed_surface_operator(PETSC_COMM_WORLD, path, o).surface_t.size(), 6u);
+}
+
+TEST(Mpi, DistributedEigenvaluesEqualTheSerialSpectrum) {
+  const std::string path = sample_volume();
+  mpi::DistributedSurfaceOptions o;
+  o.min_surfels = 50;  // 5 surfaces: 5 zero eigenvalues, then the smallest nonzero ones
+  const Serial s = serial(path, o);
+  SpectrumOptions so;
+  so.count = 12;
+  const Spectrum reference = smallest_eigenpairs(s.op, so);
+  const mpi::DistributedSurfaceOperator d = mpi::distributed_surface_operator(PETSC_COMM_WORLD, path, o);
+  for (auto solver : {mpi::DistributedEigenSolver::Lobpcg, mpi::DistributedEigenSolver::LobpcgAmg,
+                      mpi::DistributedEigenSolver::KrylovSchurInvert}) {
+    const mpi::DistributedSpectrum ds = mpi::distributed_smallest_eigenpairs(d, 12, solver, 1e-10);
+    SCOPED_TRACE(ds.solver);
+    ASSERT_EQ(ds.eigenvalues.size(), 12);
+    for (int k = 0; k < 12; ++k) {
+      // Both solve to ~1e-10 relative residuals; eigenvalues converge as the residual squared,
+      // so 1e-7 of the largest leaves room for the two solvers' stopping rules.
+      EXPECT_NEAR(ds.eigenvalues[k], reference.eigenvalues[k], 1e-7 * reference.eigenvalues[11]) << "k = " << k;
+      EXPECT_NEAR(ds.laplace_beltrami[k], reference.laplace_beltrami[k], 1e-7 * reference.laplace_beltrami[11]) << "k = " << k;
+    }
+    // M-orthonormal eigenvectors: x_k^T M x_k = 1 over the ranks.
+    for (int k = 0; k < 12; ++k) {
+      double norm = (d.mu.array() * ds.eigenvectors.col(k).array().square()).sum();
+      MPI_Allreduce(MPI_IN_PLACE, &norm, 1, MPI_DOUBLE, MPI_SUM, d.comm);
+      EXPECT_NEAR(norm, 1.0, 1e-8) << "k = " << k;
+    }
+  }
+}
+
+TEST(Mpi, BadInputIsRefusedOnEveryRank) {
+  mpi::DistributedSurfaceOptions o;
+  o.volume.label = 77;  // no such label
+  const std::string path = sample_volume();
+  try {
+    mpi::distributed_surface_operator(PETSC_COMM_WORLD, path, o);
+    ADD_FAILURE() << "no error";
+  } catch (const digilap::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no voxel has the label 77"), std::string::npos) << e.what();
+  }
+  try {
+    mpi::distributed_surface_operator(PETSC_COMM_WORLD, "/nonexistent.npy", {});
+    ADD_FAILURE() << "no error";
+  } catch (const digilap::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("cannot open"), std::string::npos) << e.what();
+  }
+}
+
+int main(int argc, char** argv) {
+  ::testing::InitGoogleTest(&argc, argv);
+  SlepcInitialize(&argc, &argv, nullptr, nullptr);
+  if (rank_of() != 0) delete ::testing::UnitTest::GetInstance()->listeners().Release(
+      ::testing::UnitTest::GetInstance()->listeners().default_result_printer());
+  int failed = RUN_ALL_TESTS();
+  MPI_Allreduce(MPI_IN_PLACE, &failed, 1, MPI_INT, MPI_MAX, PETSC_COMM_WORLD);
+  SlepcFinalize();
+  return failed;
+}
