@@ -91,7 +91,7 @@ std::vector<Surfel> all_surfels(const mpi::DistributedSurfaceOperator& d) {
   std::vector<int> flat(static_cast<std::size_t>(displs.back() + counts.back()));
   MPI_Allgatherv(mine.data(), n, MPI_INT, flat.data(), counts.data(), displs.data(), MPI_INT, d.comm);
   std::vector<Surfel> out;
-  for (std::size_t q = 0; q + 4 < flat.size() + 4 && q < flat.size(); q += 5)
+  for (std::size_t q = 0; q < flat.size(); q += 5)
     out.push_back({{flat[q], flat[q + 1], flat[q + 2]}, static_cast<std::int8_t>(flat[q + 3]), static_cast<std::int8_t>(flat[q + 4])});
   return out;
 }
