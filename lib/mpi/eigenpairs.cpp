@@ -50,6 +50,31 @@ struct Owned {
     if (eps) EPSDestroy(&eps);
   }
 };
+
+// One PETSc option set for a scope and taken out after it (a null name sets nothing).
+class ScopedOption {
+ public:
+  ScopedOption(const char* name, const std::string& value) : name_(name) {
+    if (name_) petsc_check(PetscOptionsSetValue(nullptr, name_, value.c_str()), "PetscOptionsSetValue");
+  }
+  ~ScopedOption() {
+    if (name_) PetscOptionsClearValue(nullptr, name_);
+  }
+  ScopedOption(const ScopedOption&) = delete;
+  ScopedOption& operator=(const ScopedOption&) = delete;
+
+ private:
+  const char* name_;
+};
+
+// INFOG(1) of the MUMPS factor behind a Cholesky PC, 0 when there is none yet.
+PetscInt mumps_status(PC pc) {
+  Mat factor = nullptr;
+  PetscInt status = 0;
+  if (PCFactorGetMatrix(pc, &factor) != 0 || !factor) return 0;
+  if (MatMumpsGetInfog(factor, 1, &status) != 0) return 0;
+  return status;
+}
 }  // namespace
 
 DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOperator& op, int count, DistributedEigenSolver solver,
@@ -128,45 +153,80 @@ DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOper
     }
     // A shift near the first nonzero eigenvalue of a sphere of the same area (8 pi / area).
     const double sigma = 8 * M_PI / total_area;
-    petsc_check(EPSCreate(op.comm, &own.eps), "EPSCreate");
-    EPS eps = own.eps;
-    petsc_check(EPSSetOperators(eps, stiffness, mass), "EPSSetOperators");
-    petsc_check(EPSSetProblemType(eps, EPS_GHEP), "EPSSetProblemType");
-    petsc_check(EPSSetDimensions(eps, wanted, PETSC_DEFAULT, PETSC_DEFAULT), "EPSSetDimensions");
-    petsc_check(EPSSetTolerances(eps, tolerance, 10000), "EPSSetTolerances");
-    petsc_check(EPSSetDeflationSpace(eps, static_cast<PetscInt>(constants.size()), constants.data()), "EPSSetDeflationSpace");
-    ST st;
-    KSP ksp;
-    PC pc;
-    petsc_check(EPSGetST(eps, &st), "EPSGetST");
-    petsc_check(STGetKSP(st, &ksp), "STGetKSP");
-    petsc_check(KSPGetPC(ksp, &pc), "KSPGetPC");
-    petsc_check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
-    if (solver == DistributedEigenSolver::KrylovSchurInvert) {
-      petsc_check(EPSSetType(eps, EPSKRYLOVSCHUR), "EPSSetType");
-      petsc_check(EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE), "EPSSetWhichEigenpairs");
-      petsc_check(EPSSetTarget(eps, -sigma), "EPSSetTarget");  // -A + sigma M is positive definite
-      petsc_check(STSetType(st, STSINVERT), "STSetType");
-      petsc_check(PCSetType(pc, PCCHOLESKY), "PCSetType");
-      petsc_check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
-    } else {
-      petsc_check(EPSSetType(eps, EPSLOBPCG), "EPSSetType");
-      petsc_check(EPSSetWhichEigenpairs(eps, EPS_SMALLEST_REAL), "EPSSetWhichEigenpairs");
-      petsc_check(STSetType(st, STPRECOND), "STSetType");
-      if (solver == DistributedEigenSolver::LobpcgAmg) {
-        Mat shifted;  // -A + sigma M: definite, so that AMG has no null space to fight
-        petsc_check(MatDuplicate(stiffness, MAT_COPY_VALUES, &shifted), "MatDuplicate");
-        own.mats.push_back(shifted);
-        petsc_check(MatAXPY(shifted, sigma, mass, SUBSET_NONZERO_PATTERN), "MatAXPY");
-        petsc_check(STSetPreconditionerMat(st, shifted), "STSetPreconditionerMat");
-        petsc_check(PCSetType(pc, PCHYPRE), "PCSetType");
-        petsc_check(PCHYPRESetType(pc, "boomeramg"), "PCHYPRESetType");
-      } else {
-        petsc_check(PCSetType(pc, PCJACOBI), "PCSetType");
-      }
+    Mat shifted = nullptr;  // -A + sigma M: definite, so that AMG has no null space to fight
+    if (solver == DistributedEigenSolver::LobpcgAmg) {
+      petsc_check(MatDuplicate(stiffness, MAT_COPY_VALUES, &shifted), "MatDuplicate");
+      own.mats.push_back(shifted);
+      petsc_check(MatAXPY(shifted, sigma, mass, SUBSET_NONZERO_PATTERN), "MatAXPY");
     }
-    petsc_check(EPSSetFromOptions(eps), "EPSSetFromOptions");  // -eps_* / -st_* options still apply
-    petsc_check(EPSSolve(eps), "EPSSolve");
+    // MUMPS sizes its workspace from the symbolic analysis plus ICNTL(14) percent. Its LDL^T
+    // pivoting and its dynamic scheduling of the tree among ranks can need more than that, and
+    // then it fails with INFOG(1) = -8 or -9 (seen on a loaded 2-core machine, 3 ranks). The
+    // answer MUMPS documents is a larger ICNTL(14): we start at 50 and retry at 200 and 800
+    // (checked by starting at 0: 3 ranks failed with -9 once, then passed at 200).
+    PetscBool user_relaxation = PETSC_FALSE;
+    petsc_check(PetscOptionsHasName(nullptr, nullptr, "-st_mat_mumps_icntl_14", &user_relaxation), "PetscOptionsHasName");
+    const int relaxations[] = {50, 200, 800};
+    const int attempts = solver == DistributedEigenSolver::KrylovSchurInvert && !user_relaxation ? 3 : 1;
+    for (int attempt = 0;; ++attempt) {
+      const int relaxation = relaxations[attempt];
+      if (own.eps) EPSDestroy(&own.eps);
+      petsc_check(EPSCreate(op.comm, &own.eps), "EPSCreate");
+      EPS eps = own.eps;
+      petsc_check(EPSSetOperators(eps, stiffness, mass), "EPSSetOperators");
+      petsc_check(EPSSetProblemType(eps, EPS_GHEP), "EPSSetProblemType");
+      petsc_check(EPSSetDimensions(eps, wanted, PETSC_DEFAULT, PETSC_DEFAULT), "EPSSetDimensions");
+      petsc_check(EPSSetTolerances(eps, tolerance, 10000), "EPSSetTolerances");
+      petsc_check(EPSSetDeflationSpace(eps, static_cast<PetscInt>(constants.size()), constants.data()), "EPSSetDeflationSpace");
+      ST st;
+      KSP ksp;
+      PC pc;
+      petsc_check(EPSGetST(eps, &st), "EPSGetST");
+      petsc_check(STGetKSP(st, &ksp), "STGetKSP");
+      petsc_check(KSPGetPC(ksp, &pc), "KSPGetPC");
+      petsc_check(KSPSetType(ksp, KSPPREONLY), "KSPSetType");
+      if (solver == DistributedEigenSolver::KrylovSchurInvert) {
+        petsc_check(EPSSetType(eps, EPSKRYLOVSCHUR), "EPSSetType");
+        petsc_check(EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE), "EPSSetWhichEigenpairs");
+        petsc_check(EPSSetTarget(eps, -sigma), "EPSSetTarget");  // -A + sigma M is positive definite
+        petsc_check(STSetType(st, STSINVERT), "STSetType");
+        petsc_check(PCSetType(pc, PCCHOLESKY), "PCSetType");
+        petsc_check(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS), "PCFactorSetMatSolverType");
+      } else {
+        petsc_check(EPSSetType(eps, EPSLOBPCG), "EPSSetType");
+        petsc_check(EPSSetWhichEigenpairs(eps, EPS_SMALLEST_REAL), "EPSSetWhichEigenpairs");
+        petsc_check(STSetType(st, STPRECOND), "STSetType");
+        if (solver == DistributedEigenSolver::LobpcgAmg) {
+          petsc_check(STSetPreconditionerMat(st, shifted), "STSetPreconditionerMat");
+          petsc_check(PCSetType(pc, PCHYPRE), "PCSetType");
+          petsc_check(PCHYPRESetType(pc, "boomeramg"), "PCHYPRESetType");
+        } else {
+          petsc_check(PCSetType(pc, PCJACOBI), "PCSetType");
+        }
+      }
+      petsc_check(EPSSetFromOptions(eps), "EPSSetFromOptions");  // -eps_* / -st_* options still apply
+      const bool retry_possible = attempt + 1 < attempts;
+      PetscErrorCode code = 0;
+      {
+        // The factor reads ICNTL(14) from the options when it is set up, inside EPSSolve.
+        const ScopedOption relax(attempts > 1 ? "-st_mat_mumps_icntl_14" : nullptr, std::to_string(relaxation));
+        if (retry_possible) PetscPushErrorHandler(PetscReturnErrorHandler, nullptr);  // a retried failure prints nothing
+        code = EPSSolve(eps);
+        if (retry_possible) PetscPopErrorHandler();
+      }
+      if (code == 0) break;
+      const PetscInt status = solver == DistributedEigenSolver::KrylovSchurInvert ? mumps_status(pc) : 0;
+      const bool out_of_workspace = status == -8 || status == -9;
+      if (out_of_workspace && retry_possible) continue;
+      if (out_of_workspace)
+        throw Error("distributed_smallest_eigenpairs: MUMPS ran out of workspace (INFOG(1) = " + std::to_string(status) +
+                    ") even with ICNTL(14) = " + std::to_string(relaxation) + "; try another --solver or -st_mat_mumps_icntl_14 <percent>");
+      if (status < 0)
+        throw Error("distributed_smallest_eigenpairs: the MUMPS factorization failed with INFOG(1) = " + std::to_string(status) +
+                    " (see the MUMPS user guide); try another --solver");
+      petsc_check(code, "EPSSolve");
+    }
+    EPS eps = own.eps;
     PetscInt converged = 0, iterations = 0;
     petsc_check(EPSGetConverged(eps, &converged), "EPSGetConverged");
     petsc_check(EPSGetIterationNumber(eps, &iterations), "EPSGetIterationNumber");
