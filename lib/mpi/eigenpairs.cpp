@@ -67,6 +67,12 @@ class ScopedOption {
   const char* name_;
 };
 
+// SLEPc's monitor hook: the caller's progress function (ctx) with the iteration and converged count.
+PetscErrorCode report_progress(EPS, PetscInt iteration, PetscInt converged, PetscScalar*, PetscScalar*, PetscReal*, PetscInt, void* ctx) {
+  (*static_cast<std::function<void(int, int)>*>(ctx))(static_cast<int>(iteration), static_cast<int>(converged));
+  return 0;
+}
+
 // INFOG(1) of the MUMPS factor behind a Cholesky PC, 0 when there is none yet.
 PetscInt mumps_status(PC pc) {
   Mat factor = nullptr;
@@ -78,7 +84,7 @@ PetscInt mumps_status(PC pc) {
 }  // namespace
 
 DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOperator& op, int count, DistributedEigenSolver solver,
-                                                    double tolerance) {
+                                                    double tolerance, const std::function<void(int, int)>& progress) {
   if (count < 1) throw Error("distributed_smallest_eigenpairs: count must be at least 1, got " + std::to_string(count));
   require_positive("distributed_smallest_eigenpairs: tolerance", tolerance);
   const Ranks ranks(op.comm);
@@ -205,6 +211,8 @@ DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOper
         }
       }
       petsc_check(EPSSetFromOptions(eps), "EPSSetFromOptions");  // -eps_* / -st_* options still apply
+      if (progress)
+        petsc_check(EPSMonitorSet(eps, report_progress, const_cast<std::function<void(int, int)>*>(&progress), nullptr), "EPSMonitorSet");
       const bool retry_possible = attempt + 1 < attempts;
       PetscErrorCode code = 0;
       {

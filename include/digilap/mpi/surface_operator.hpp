@@ -16,6 +16,7 @@
 #pragma once
 
 #include "digilap/core/heat_kernel.hpp"
+#include "digilap/surface/normals.hpp"
 #include "digilap/surface/surfels.hpp"
 #include "digilap/surface/volume.hpp"
 
@@ -24,6 +25,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -34,7 +36,7 @@ struct DistributedSurfaceOptions {
   surface::VolumeOptions volume;  ///< label or threshold, h, size limit
   std::size_t min_surfels = 0;    ///< drop the surfaces with fewer surfels (--min-size)
   bool largest_only = false;      ///< keep only the largest surface (--largest)
-  double k_R = 2.0;               ///< II radius constant (the surfaces' default)
+  double k_R = surface::SurfaceNormalOptions{}.k_R;  ///< II radius constant (the surfaces' default)
   double length_scale = 0.0;      ///< l; 0 measures it as surface::length_scale does
   double length_quantile = 0.02;
   /// t, c_t, k, per_contour_time, memory_limit_bytes (per rank). couple_surfaces and
@@ -106,9 +108,11 @@ struct DistributedSpectrum {
 /// The `count` smallest eigenpairs (collective): each kept surface's constant vector is exact
 /// and deflated from SLEPc's search; zero-area surfels are left out of the problem (their rows
 /// and columns of A are zero) and filled in afterwards. Throws digilap::Error when SLEPc does
-/// not converge.
+/// not converge. `progress`, when given, is called on every rank after each SLEPc iteration with
+/// the iteration and the number of eigenpairs converged so far (of count minus the surfaces).
 DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOperator& op, int count,
                                                     DistributedEigenSolver solver = DistributedEigenSolver::Lobpcg,
-                                                    double tolerance = 1e-9);
+                                                    double tolerance = 1e-9,
+                                                    const std::function<void(int iteration, int converged)>& progress = {});
 
 }  // namespace digilap::mpi
