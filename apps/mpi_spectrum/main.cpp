@@ -35,7 +35,7 @@ struct AppOptions {
   mpi::DistributedSurfaceOptions surface;
   int count = 10;
   AppOptions() { surface.min_surfels = 8; }  // digilap-spectrum's --min-size default
-  std::string solver = "lobpcg";
+  std::string solver = "krylov-schur";  // the fastest measured (docs/distributed.md)
   double tolerance = 1e-9;
   std::string out_dir = "out/mpi-spectrum";
   std::int64_t gather_limit = 2'000'000;
@@ -263,8 +263,9 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app.add_option("--count", o.count, "Number of eigenpairs (one 0 per surface first)")->check(CLI::PositiveNumber)->capture_default_str();
-  app.add_option("--solver", o.solver, "lobpcg (Jacobi), lobpcg-amg (hypre BoomerAMG) or krylov-schur (MUMPS shift-and-invert)")
-      ->check(CLI::IsMember({"lobpcg", "lobpcg-amg", "krylov-schur"}))
+  app.add_option("--solver", o.solver,
+                 "krylov-schur (products only), lobpcg (Jacobi), lobpcg-amg (hypre BoomerAMG) or shift-invert (Krylov-Schur, MUMPS)")
+      ->check(CLI::IsMember({"krylov-schur", "lobpcg", "lobpcg-amg", "shift-invert"}))
       ->capture_default_str();
   app.add_option("--tol", o.tolerance, "SLEPc's relative tolerance")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--gather-limit", o.gather_limit, "Gather one PLY on rank 0 up to this many surfels, else one PLY per rank")

@@ -90,10 +90,12 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
 
 /// The eigen-solvers measured in docs/distributed.md.
 enum class DistributedEigenSolver {
-  Lobpcg,                ///< SLEPc LOBPCG, Jacobi-preconditioned (the default: the faster)
+  KrylovSchur,           ///< SLEPc Krylov-Schur on M^(-1/2) (-A) M^(-1/2), products only (the default: the fastest)
+  Lobpcg,                ///< SLEPc LOBPCG, Jacobi-preconditioned
   LobpcgAmg,             ///< SLEPc LOBPCG, preconditioned by hypre BoomerAMG on -A + sigma M
   KrylovSchurInvert,     ///< SLEPc Krylov-Schur, shift-and-invert by a MUMPS Cholesky factor
 };
+/// "krylov-schur", "lobpcg", "lobpcg-amg" or "shift-invert".
 DistributedEigenSolver distributed_eigen_solver_by_name(const std::string& name);
 
 struct DistributedSpectrum {
@@ -111,7 +113,7 @@ struct DistributedSpectrum {
 /// not converge. `progress`, when given, is called on every rank after each SLEPc iteration with
 /// the iteration and the number of eigenpairs converged so far (of count minus the surfaces).
 DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOperator& op, int count,
-                                                    DistributedEigenSolver solver = DistributedEigenSolver::Lobpcg,
+                                                    DistributedEigenSolver solver = DistributedEigenSolver::KrylovSchur,
                                                     double tolerance = 1e-9,
                                                     const std::function<void(int iteration, int converged)>& progress = {});
 
