@@ -347,7 +347,7 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
     Eigen::MatrixX3d normals;
     std::vector<int> part_surface;  // the kept surface of each part of `local`
   };
-  const Rows rows = on_every_rank(ranks, [&] {
+  Rows rows = on_every_rank(ranks, [&] {
     Rows r;
     const VoxelSet slab = surface::read_volume_slab(path, k0 - out.halo_planes, k1 + out.halo_planes, o.volume);
     const SurfelSet near = on_planes(surface::detail::surfels_in_row_order(slab), near_begin, near_end);
@@ -380,7 +380,10 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
       for (int c : part_surface) normals.surface_length_scales.push_back(surface_l[static_cast<std::size_t>(c)]);
     HeatLaplacianOptions with_stiffness = o.op;
     with_stiffness.stiffness = true;  // A is what the eigen-solver needs
-    r.op = surface::heat_laplacian(r.local, surface::measures(r.local, normals), with_stiffness);
+    // Only this rank's rows: the halo's surfels are columns here and rows on their owners.
+    std::vector<char> owned(r.global.size());
+    for (std::size_t i = 0; i < owned.size(); ++i) owned[i] = r.global[i] >= out.row_begin && r.global[i] < out.row_end;
+    r.op = surface::detail::heat_laplacian_rows(r.local, surface::measures(r.local, normals), with_stiffness, owned);
     r.normals = std::move(normals.normals);
     return r;
   });
@@ -423,8 +426,11 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
     petsc_check(MatAssemblyBegin(*into, MAT_FINAL_ASSEMBLY), "MatAssemblyBegin");
     petsc_check(MatAssemblyEnd(*into, MAT_FINAL_ASSEMBLY), "MatAssemblyEnd");
   };
+  // Each local matrix freed once copied: the peak holds three operators' worth, not four.
   assemble(rows.op.L, &out.L);
+  rows.op.L = SparseMatrix();
   assemble(rows.op.A, &out.A);
+  rows.op.A = SparseMatrix();
   petsc_check(MatSetOption(out.A, MAT_SYMMETRIC, PETSC_TRUE), "MatSetOption");
   petsc_check(VecCreateMPI(comm, n_local, static_cast<PetscInt>(out.size), &out.mass), "VecCreateMPI");
   // This rank's surfels in row order, with their surface, area and normal.

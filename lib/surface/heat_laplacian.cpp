@@ -52,6 +52,12 @@ PartLayout part_layout(const SurfelSet& surfels, const SurfelMeasures& measures,
 }
 
 SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options) {
+  return detail::heat_laplacian_rows(surfels, measures, options, {});
+}
+
+// `wanted` empty: every row.
+SurfaceOperator detail::heat_laplacian_rows(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options,
+                                            const std::vector<char>& wanted) {
   if (options.richardson) throw Error("heat_laplacian (surfaces): Richardson extrapolation is not available in 3D");
   const auto n = static_cast<Eigen::Index>(surfels.size());
   if (measures.mu.size() != n)
@@ -68,6 +74,9 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
   op.cut = layout.cut;
   op.length_scale = layout.length_scale;
   op.part_t = layout.part_t;
+  if (!wanted.empty() && wanted.size() != static_cast<std::size_t>(n))
+    throw Error("heat_laplacian (surfaces): " + std::to_string(wanted.size()) + " wanted flags for " + std::to_string(n) + " surfels");
+  auto is_wanted = [&](Eigen::Index i) { return wanted.empty() || wanted[static_cast<std::size_t>(i)] != 0; };
   if (n == 0) return op;
   std::vector<Grid> grids;
   grids.reserve(parts);
@@ -78,7 +87,7 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
     const Eigen::Index first = op.row_offset[p], last = op.row_offset[p + 1];
 #pragma omp parallel for schedule(dynamic, 256)
     for (Eigen::Index i = first; i < last; ++i)  // with the diagonal
-      row_nnz[static_cast<std::size_t>(i)] = grids[p].count_within(op.positions.row(i).transpose(), kernel[p].cut);
+      row_nnz[static_cast<std::size_t>(i)] = is_wanted(i) ? grids[p].count_within(op.positions.row(i).transpose(), kernel[p].cut) : 0;
   }
   const auto nnz = static_cast<std::size_t>(std::accumulate(row_nnz.begin(), row_nnz.end(), Eigen::Index(0)));
   digilap::detail::check_operator_memory("heat_laplacian (surfaces)", nnz, static_cast<std::size_t>(n), options.memory_limit_bytes,
@@ -97,6 +106,7 @@ SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& m
       RowSorter sorter;
 #pragma omp for schedule(dynamic, 64)
       for (Eigen::Index i = first; i < last; ++i) {
+        if (!is_wanted(i)) continue;  // left empty
         const int begin = op.L.outerIndexPtr()[i];
         int* col = op.L.innerIndexPtr() + begin;
         double* d2 = op.L.valuePtr() + begin;  // squared distances, turned into weights by finish_row

@@ -16,6 +16,8 @@
 
 #include <Eigen/Core>
 
+#include <vector>
+
 namespace digilap::surface {
 
 /// The operator on the surfels: dimension 2, one part per connected surface (row_offset is
@@ -36,5 +38,13 @@ struct SurfaceOperator : HeatOperator {
 /// Richardson (not available in 3D), mismatched measures, or an estimated size above the
 /// memory limit.
 SurfaceOperator heat_laplacian(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options = {});
+
+namespace detail {
+/// heat_laplacian with only the rows where `wanted` is nonzero filled (the others empty, in the
+/// count and the memory estimate too); filled rows equal heat_laplacian's bit for bit, since
+/// rows are independent. The distributed operator uses it to skip its halo's rows.
+SurfaceOperator heat_laplacian_rows(const SurfelSet& surfels, const SurfelMeasures& measures, const HeatLaplacianOptions& options,
+                                    const std::vector<char>& wanted);
+}  // namespace detail
 
 }  // namespace digilap::surface
