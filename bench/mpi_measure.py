@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """Measurements of the distributed pipeline (digilap-mpi-spectrum, issue 24), printed as the
-Markdown tables of docs/distributed.md.
+Markdown tables of docs/benchmarks.md ("Beyond one machine").
 
 usage: bench/mpi_measure.py BUILD_DIR {solvers,accuracy,memory,weak,atlas} [--data DIR] [--work DIR]
 
