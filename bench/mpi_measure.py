@@ -102,6 +102,12 @@ def serial_run(build, volume_args, out, count=10):
 
 
 def cases(args):
+    for name, volume_args in all_cases(args):
+        if not args.cases or any(c in name for c in args.cases.split(",")):
+            yield name, volume_args
+
+
+def all_cases(args):
     yield "unit sphere, h = 0.05", ["--volume", sphere_volume(os.path.join(args.work, "sphere_0.05.npy"), 0.05), "--h", "0.05"]
     for atlas in ("JHU-WhiteMatter-labels-1mm.nii.gz", "HarvardOxford-cort-maxprob-thr0-1mm.nii.gz"):
         path = os.path.join(args.data, atlas)
@@ -205,6 +211,7 @@ if __name__ == "__main__":
     parser.add_argument("what", choices=["solvers", "accuracy", "memory", "weak", "atlas"])
     parser.add_argument("--data", default=os.path.join(os.path.dirname(__file__), "../../shared/data"))
     parser.add_argument("--work", default="/tmp/digilap_mpi_measure")
+    parser.add_argument("--cases", default="", help="solvers: only the cases whose name contains one of these (comma-separated: sphere,JHU)")
     args = parser.parse_args()
     os.makedirs(args.work, exist_ok=True)
     {"solvers": solvers, "accuracy": accuracy, "memory": memory, "weak": weak, "atlas": atlas}[args.what](args)
