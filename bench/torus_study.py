@@ -146,7 +146,8 @@ def main():
             surfels, mu, n = pipeline(args.shape, h, normals_kind)
             x = np.asarray(surfels.centres)
             m = np.asarray(mu.mu)
-            t0 = s.heat_laplacian(surfels, mu).t
+            op = s.heat_laplacian(surfels, mu)
+            t0 = op.t
             if args.distance_normals == "exact":
                 n = pipeline(args.shape, h, "exact")[2]
             for scale in args.t_scales:
@@ -162,7 +163,7 @@ def main():
                               % (np.mean(np.abs(curvature - exact_K)), exact_K.min(), exact_K.max()))
                     K = stiffness(x, n, m, t, args.k, distance.split("+")[0], curvature)
                     if distance == "chord" and scale == 1.0 and normals_kind == "ii":  # the rebuild is digilap's operator
-                        A = s.heat_laplacian(surfels, mu).A
+                        A = op.A
                         gap = abs(K + A).max() / abs(A).max()
                         assert gap < 1e-12, gap
                     values = spectrum(K, m, args.count)
