@@ -40,7 +40,6 @@ from scipy.spatial import cKDTree
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "tests" / "reference"))
 import mesh_fem  # noqa: E402
-import digilap  # noqa: E402
 import digilap.surface as s  # noqa: E402
 
 CENTRE = [0.0123, -0.0371, 0.0217]
@@ -67,17 +66,26 @@ def gaussian_curvature(shape, x):
     return cos_phi / (0.4 * (1.0 + 0.4 * cos_phi))
 
 
+def neighbour_pairs(x, n, t, k):
+    """The pairs i < j within the cut k sqrt(t), their chords x_j - x_i, the squared chords, and the
+    squared heights <x_j - x_i, m>^2 along the mean normal m = (n_i + n_j) / |n_i + n_j|."""
+    pairs = cKDTree(x).query_pairs(k * np.sqrt(t), output_type="ndarray")
+    i, j = pairs[:, 0], pairs[:, 1]
+    dx = x[j] - x[i]
+    mean_n = n[i] + n[j]
+    height2 = np.einsum("ij,ij->i", dx, mean_n) ** 2 / np.einsum("ij,ij->i", mean_n, mean_n)
+    return i, j, dx, np.einsum("ij,ij->i", dx, dx), height2
+
+
 def estimated_gaussian_curvature(x, n, mu, t, k):
     """K per surfel from the kernel-weighted pair moments of positions and normals alone (no exact
     geometry): with rho^2 the tangent chord, <dx, dn> / rho^2 averages the normal curvature over
     directions, H, and |dn|^2 / rho^2 averages |S e|^2, (k1^2 + k2^2) / 2; K = k1 k2 = 2 H^2 -
     (k1^2 + k2^2) / 2. Both are ratios of sums weighted by w rho^2, so that the normals' noise,
     whose |dn|^2 does not shrink with rho, is not divided by small rho^2."""
-    pairs = cKDTree(x).query_pairs(k * np.sqrt(t), output_type="ndarray")
-    i, j = pairs[:, 0], pairs[:, 1]
-    dx, dn = x[j] - x[i], n[j] - n[i]
-    mean_n = n[i] + n[j]
-    rho2 = np.einsum("ij,ij->i", dx, dx) - np.einsum("ij,ij->i", dx, mean_n) ** 2 / np.einsum("ij,ij->i", mean_n, mean_n)
+    i, j, dx, chord2, height2 = neighbour_pairs(x, n, t, k)
+    rho2 = chord2 - height2
+    dn = n[j] - n[i]
     w = np.exp(-rho2 / (4 * t))
     sums = {}
     for name, value in (("weight", w * rho2), ("bend", w * np.einsum("ij,ij->i", dx, dn)), ("turn", w * np.einsum("ij,ij->i", dn, dn))):
@@ -88,15 +96,9 @@ def estimated_gaussian_curvature(x, n, mu, t, k):
 
 def stiffness(x, n, mu, t, k, distance, curvature=None):
     """K = -A (positive semidefinite): K_ij = -w_ij mu_i mu_j off the diagonal, rows summing to 0."""
-    tree = cKDTree(x)
-    pairs = tree.query_pairs(k * np.sqrt(t), output_type="ndarray")
-    i, j = pairs[:, 0], pairs[:, 1]
-    dx = x[j] - x[i]
-    d2 = np.einsum("ij,ij->i", dx, dx)
+    i, j, dx, d2, height2 = neighbour_pairs(x, n, t, k)
     if distance in ("tangent", "tangent-geodesic"):  # the normal component of the chord out: the staircase's jitter
-        mean_n = n[i] + n[j]
-        height = np.einsum("ij,ij->i", dx, mean_n)
-        d2 = d2 - height * height / np.einsum("ij,ij->i", mean_n, mean_n)
+        d2 = d2 - height2
     if distance in ("geodesic", "tangent-geodesic"):
         bend = np.einsum("ij,ij->i", dx, n[j] - n[i])
         d2 = d2 + bend * bend / 12
