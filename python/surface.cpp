@@ -9,6 +9,7 @@
 #include "digilap/surface/matrix_free_heat_flow.hpp"
 #include "digilap/surface/ply.hpp"
 #include "digilap/surface/smoothing.hpp"
+#include "digilap/surface/ground_truth.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include <limits>
@@ -53,6 +54,14 @@ surface::VoxelSet voxels_from_mask(const py::array& volume, double h, py::object
   py::gil_scoped_release release;
   return surface::VoxelSet::from_mask(h, base, nx, ny, nz, si, sj, sk);
 }
+
+
+SurfaceKernel surface_kernel_named(const std::string& s) {
+  if (s == "chord") return SurfaceKernel::Chord;
+  if (s == "intrinsic") return SurfaceKernel::Intrinsic;
+  throw py::value_error("kernel: expected 'chord' or 'intrinsic', got '" + s + "'");
+}
+const char* surface_kernel_name(SurfaceKernel k) { return k == SurfaceKernel::Chord ? "chord" : "intrinsic"; }
 
 }  // namespace
 
@@ -141,24 +150,32 @@ void bind_surface(py::module_& m, py::module_& s) {
       .def_readonly("clamped", &surface::SurfelMeasures::clamped, "Surfels of zero area (II normal orthogonal to them).")
       .def_readonly("surface_length_scales", &surface::SurfelMeasures::surface_length_scales)
       .def("total_area", &surface::SurfelMeasures::total_area);
+  s.def("sphere_spectrum", &surface::sphere_spectrum, py::arg("radius"), py::arg("count"),
+        "The count smallest Laplace-Beltrami eigenvalues of the sphere: l(l+1)/r^2, 2l+1 times each.");
+  s.def("torus_spectrum", &surface::torus_spectrum, py::arg("R"), py::arg("r"), py::arg("count"),
+        "The count smallest Laplace-Beltrami eigenvalues of the torus (R > r), by separation of variables (relative error < 1e-6).");
   s.def("measures", &surface::measures, py::arg("surfels"), py::arg("normals"), Release(), "Surfel areas mu = h^2 max(0, <n, n_e>).");
   py::class_<surface::SurfaceOperator, HeatOperator, std::shared_ptr<surface::SurfaceOperator>>(
       s, "SurfaceOperator", "The operator on surfels (a HeatOperator of dimension 2): L, A = M L, M as scipy.sparse.csr_matrix "
       "views; positions N x 3.")
       .def_readonly("positions", &surface::SurfaceOperator::positions);
   s.def("heat_laplacian", [](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
-                             double length_scale, double memory_limit, bool stiffness, bool per_surface_time, bool couple_surfaces) {
+                             double length_scale, double memory_limit, bool stiffness, bool per_surface_time, bool couple_surfaces,
+                             const std::string& kernel) {
         HeatLaplacianOptions o;
         o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale, o.memory_limit_bytes = memory_limit;
         o.stiffness = stiffness, o.per_contour_time = per_surface_time, o.couple_surfaces = couple_surfaces;
+        o.surface_kernel = surface_kernel_named(kernel);
         return std::shared_ptr<surface::SurfaceOperator>(new surface::SurfaceOperator(surface::heat_laplacian(f, mu, o)));
       }, py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
       py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0,
       py::arg("memory_limit") = HeatLaplacianOptions{}.memory_limit_bytes, py::arg("stiffness") = true,
-      py::arg("per_surface_time") = true, py::arg("couple_surfaces") = false, Release(),
-      "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-|x_i - x_j|^2/(4t)) (g_j - g_i) mu_j,\n"
+      py::arg("per_surface_time") = true, py::arg("couple_surfaces") = false, py::arg("kernel") = surface_kernel_name(HeatLaplacianOptions{}.surface_kernel),
+      Release(),
+      "The heat-kernel Laplacian on surfels (SPEC §7): 1/(4 pi t^2) sum exp(-d_ij^2/(4t)) (g_j - g_i) mu_j,\n"
       "only between surfels of the same connected surface (couple_surfaces=True: between any), each surface with its\n"
-      "own heat time (per_surface_time=False: one for all).");
+      "own heat time (per_surface_time=False: one for all). kernel: 'chord' (d = |x_i - x_j|) or 'intrinsic' (the\n"
+      "tangent-plane chord plus the geodesic term from the normals, weights corrected for the Gaussian curvature).");
   s.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
         py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each connected surface on its own.");
   s.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
@@ -170,15 +187,16 @@ void bind_surface(py::module_& m, py::module_& s) {
       s, "MatrixFreeSurfaceOperator",
       "The surface operator heat_laplacian() would assemble, applied without storing L or A: memory O(N).")
       .def(py::init([](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
-                       double length_scale, bool per_surface_time, bool couple_surfaces) {
+                       double length_scale, bool per_surface_time, bool couple_surfaces, const std::string& kernel) {
              HeatLaplacianOptions o;
              o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale;
              o.per_contour_time = per_surface_time, o.couple_surfaces = couple_surfaces;
+             o.surface_kernel = surface_kernel_named(kernel);
              py::gil_scoped_release release;
              return std::make_shared<surface::MatrixFreeSurfaceOperator>(f, mu, o);
            }), py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
            py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0, py::arg("per_surface_time") = true,
-           py::arg("couple_surfaces") = false)
+           py::arg("couple_surfaces") = false, py::arg("kernel") = surface_kernel_name(HeatLaplacianOptions{}.surface_kernel))
       .def("rows", &surface::MatrixFreeSurfaceOperator::rows)
       .def_property_readonly("t", &surface::MatrixFreeSurfaceOperator::t)
       .def_property_readonly("cut", &surface::MatrixFreeSurfaceOperator::cut)

@@ -79,6 +79,14 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
       ->transform(CLI::CheckedTransformer(placements, CLI::ignore_case).description(""))
       ->type_name("{pointels,linels}")
       ->default_str("pointels");
+  const std::map<std::string, SurfaceKernel> surface_kernels{{"chord", SurfaceKernel::Chord},
+                                                             {"intrinsic", SurfaceKernel::Intrinsic}};
+  app.add_option("--surface-kernel", o.surface_kernel,
+                 "Surfaces: the kernel's distance, chord (|x_i - x_j|) or intrinsic (tangent-plane chord plus the geodesic "
+                 "term from the normals, weights corrected for the Gaussian curvature)")
+      ->transform(CLI::CheckedTransformer(surface_kernels, CLI::ignore_case).description(""))
+      ->type_name("{chord,intrinsic}")
+      ->default_str(o.surface_kernel == SurfaceKernel::Chord ? "chord" : "intrinsic");
   app.add_option("--memory-limit", o.memory_limit_bytes, "Refuse operators estimated larger than this many bytes")
       ->check(CLI::Validator(
           [](std::string& text) {
@@ -120,14 +128,16 @@ void check_options_for_input(const CLI::App& app, const FrontEndOptions& o) {
     const char* what = o.volume.empty() ? "a surface" : "a volume";
     if (given("--distance"))
       throw Error(std::string("--distance is for curves: on ") + what +
-                  " the kernel takes the Euclidean distance between the surfels of one connected surface "
-                  "(--couple-surfaces extends it across surfaces)");
+                  " the kernel's distance is --surface-kernel's (chord or intrinsic), between the surfels of one connected "
+                  "surface (--couple-surfaces extends it across surfaces)");
     if (given("--placement")) throw Error(std::string("--placement is for curves (pointels or linels): ") + what + " has surfels only");
     if (given("--invert")) throw Error("--invert is for images: choose a volume's object with --label or --threshold");
     if (o.normals == "exact" && !o.volume.empty())
       throw Error("--normals exact needs a reference surface (--shape sphere, ellipsoid or torus): a volume has no exact surface");
   } else if (given("--couple-surfaces")) {
     throw Error("--couple-surfaces is for surfaces and volumes (curves: --distance euclidean couples the contours)");
+  } else if (given("--surface-kernel")) {
+    throw Error("--surface-kernel is for surfaces and volumes (curves: --distance geodesic or euclidean)");
   }
 }
 

@@ -29,9 +29,10 @@ inline void allocate(SparseMatrix& m, Eigen::Index n, const std::vector<Eigen::I
 // distances are in L's value slots (0 on the diagonal, at position `diag`). Turns them into
 // L_rj = w(d) mu_j and A_rj = w(d) (mu_r mu_j) (the product mu_r mu_j is commutative, so A is
 // symmetric bit for bit), then sets the diagonals so that every row sums to zero. A may be null
-// (L only).
+// (L only). With weights' measures mu_i = m_i c_i that differ from the masses m_i (the surfaces'
+// intrinsic kernel), row_scale = c_r keeps L = M^(-1) A: L_rj = w mu_j c_r (exact for c_r = 1).
 inline void finish_row(SparseMatrix& L, SparseMatrix* A, Eigen::Index r, Eigen::Index diag, const Eigen::VectorXd& mu,
-                       double inv_4t, double scale) {
+                       double inv_4t, double scale, double row_scale = 1.0) {
   const int begin = L.outerIndexPtr()[r], count = L.outerIndexPtr()[r + 1] - begin;
   const int* col = L.innerIndexPtr() + begin;
   double* lval = L.valuePtr() + begin;
@@ -41,7 +42,7 @@ inline void finish_row(SparseMatrix& L, SparseMatrix* A, Eigen::Index r, Eigen::
   if (!A) {  // L only
     for (int k = 0; k < count; ++k) {
       if (k == diag) continue;
-      lval[k] *= mu[col[k]];
+      lval[k] *= mu[col[k]] * row_scale;
       lsum += lval[k];
     }
     lval[diag] = -lsum;
@@ -52,7 +53,7 @@ inline void finish_row(SparseMatrix& L, SparseMatrix* A, Eigen::Index r, Eigen::
   for (int k = 0; k < count; ++k) {
     if (k == diag) continue;
     const double w = lval[k], mu_j = mu[col[k]];
-    lval[k] = w * mu_j;
+    lval[k] = w * mu_j * row_scale;
     aval[k] = w * (mu_r * mu_j);
     lsum += lval[k];
     asum += aval[k];

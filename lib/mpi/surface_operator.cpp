@@ -330,7 +330,9 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
 
   // 4. The rows: the surfels within the cut of this rank's planes, their labels from their
   // owners, their normals from a slab that holds their II balls.
-  const auto cut_planes = static_cast<std::int64_t>(std::ceil(cut / h)) + 1;
+  // The intrinsic kernel weighs column j by a curvature factor from j's own neighbours within
+  // the cut: the rows need the surfels within two cuts.
+  const std::int64_t cut_planes = (o.op.surface_kernel == SurfaceKernel::Intrinsic ? 2 : 1) * static_cast<std::int64_t>(std::ceil(cut / h)) + 1;
   const auto ball_planes = static_cast<std::int64_t>(std::ceil(rho)) + 2;
   out.halo_planes = cut_planes + ball_planes;
   const std::int64_t near_begin = std::max<std::int64_t>(0, k0 - cut_planes), near_end = std::min(nz, k1 + cut_planes);

@@ -2,6 +2,7 @@
 
 #include "digilap/core/error.hpp"
 #include "core/row_assembly.hpp"
+#include "intrinsic_kernel.hpp"
 #include "surfel_grid.hpp"
 
 #include <algorithm>
@@ -77,11 +78,28 @@ SurfaceOperator detail::heat_laplacian_rows(const SurfelSet& surfels, const Surf
   if (!wanted.empty() && wanted.size() != static_cast<std::size_t>(n))
     throw Error("heat_laplacian (surfaces): " + std::to_string(wanted.size()) + " wanted flags for " + std::to_string(n) + " surfels");
   auto is_wanted = [&](Eigen::Index i) { return wanted.empty() || wanted[static_cast<std::size_t>(i)] != 0; };
+  const bool intrinsic = options.surface_kernel == SurfaceKernel::Intrinsic;
+  if (intrinsic) check_intrinsic_normals("heat_laplacian (surfaces)", measures, n);
   if (n == 0) return op;
   std::vector<Grid> grids;
   grids.reserve(parts);
-  for (std::size_t p = 0; p < parts; ++p)
-    grids.emplace_back(op.positions.middleRows(op.row_offset[p], op.row_offset[p + 1] - op.row_offset[p]), kernel[p].cut);
+  // The intrinsic kernel's weights' measures mu_i (1 + g_i) (intrinsic_kernel.hpp); the masses stay mu.
+  Eigen::VectorXd weight_mu = op.mass, row_scale = Eigen::VectorXd::Ones(n);
+  for (std::size_t p = 0; p < parts; ++p) {
+    const Eigen::Index first = op.row_offset[p], rows = op.row_offset[p + 1] - first;
+    if (!intrinsic) {
+      grids.emplace_back(op.positions.middleRows(first, rows), kernel[p].cut);
+      continue;
+    }
+    const Eigen::MatrixX3d normals = measures.normals.middleRows(first, rows);
+    grids.emplace_back(op.positions.middleRows(first, rows), kernel[p].cut, &normals);
+    const Eigen::VectorXd factor = detail::curvature_factors(
+        detail::estimated_gaussian_curvature(grids.back(), op.positions.middleRows(first, rows), normals, op.mass.segment(first, rows),
+                                             kernel[p]),
+        kernel[p].t);
+    row_scale.segment(first, rows) = factor;
+    weight_mu.segment(first, rows) = op.mass.segment(first, rows).cwiseProduct(factor);
+  }
   std::vector<Eigen::Index> row_nnz(static_cast<std::size_t>(n));
   for (std::size_t p = 0; p < parts; ++p) {
     const Eigen::Index first = op.row_offset[p], last = op.row_offset[p + 1];
@@ -110,7 +128,8 @@ SurfaceOperator detail::heat_laplacian_rows(const SurfelSet& surfels, const Surf
         const int begin = op.L.outerIndexPtr()[i];
         int* col = op.L.innerIndexPtr() + begin;
         double* d2 = op.L.valuePtr() + begin;  // squared distances, turned into weights by finish_row
-        grid.gather_within(op.positions.row(i).transpose(), kp.cut, found);
+        const Eigen::Vector3d normal = intrinsic ? Eigen::Vector3d(measures.normals.row(i).transpose()) : Eigen::Vector3d::Zero();
+        grid.gather_within(op.positions.row(i).transpose(), kp.cut, found, false, intrinsic ? &normal : nullptr);
         const int count = op.L.outerIndexPtr()[i + 1] - begin;
         if (found.size != static_cast<std::size_t>(count)) {  // the same test as the count: cannot differ
           mismatch = true;  // no throw inside a parallel region: reported after it
@@ -119,7 +138,7 @@ SurfaceOperator detail::heat_laplacian_rows(const SurfelSet& surfels, const Surf
         sorter.sort(found, col, d2);  // the part's own rows, then shifted to the operator's
         for (int k = 0; k < count; ++k) col[k] += static_cast<int>(first);
         const Eigen::Index diag = std::lower_bound(col, col + count, static_cast<int>(i)) - col;
-        digilap::detail::finish_row(op.L, stiffness, i, diag, op.mass, kp.inv_4t, kp.scale);
+        digilap::detail::finish_row(op.L, stiffness, i, diag, weight_mu, kp.inv_4t, kp.scale, row_scale[i]);
       }
     }
   }

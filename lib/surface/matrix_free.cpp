@@ -5,6 +5,7 @@
 #include "core/gaussian_kernel.hpp"
 #include "core/lobpcg.hpp"
 #include "core/spectrum_parts.hpp"
+#include "intrinsic_kernel.hpp"
 #include "surfel_grid.hpp"
 
 #include <Eigen/SparseCholesky>
@@ -15,21 +16,41 @@
 
 namespace digilap::surface {
 
-// One surface: its grid over its own centres (rows local to the surface) and its kernel.
+// One surface: its grid over its own centres (rows local to the surface) and its kernel. With
+// the intrinsic kernel, the grid holds the normals, `normals` them by local row (the queries'),
+// and the weights' measures are mu (1 + g), each row scaled by its 1 + g (intrinsic_kernel.hpp).
 struct MatrixFreeSurfaceOperator::Part {
   Eigen::Index first = 0, rows = 0;
   detail::Grid grid;
   detail::Kernel kernel;
-  std::vector<int> slot;          // row -> its position in the grid's item order
-  Eigen::VectorXd mass_in_grid;    // the masses in that order
-  Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass)
-      : first(first_), rows(positions.rows()), grid(positions, k.cut), kernel(k) {
+  Eigen::MatrixX3d normals;        // empty for the chord
+  std::vector<int> slot;           // row -> its position in the grid's item order
+  Eigen::VectorXd mass_in_grid;    // the weights' measures in that order
+  Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
+  Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
+       const Eigen::MatrixX3d* normals_)
+      : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_), kernel(k) {
+    Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
+    if (normals_) {
+      normals = *normals_;
+      factor = detail::curvature_factors(detail::estimated_gaussian_curvature(grid, positions, normals, mass.segment(first, rows), kernel),
+                                         kernel.t);
+    }
     slot.resize(static_cast<std::size_t>(rows));
     mass_in_grid.resize(rows);
+    row_scale.resize(rows);
     for (std::size_t it = 0; it < grid.items.size(); ++it) {
-      slot[static_cast<std::size_t>(grid.items[it])] = static_cast<int>(it);
-      mass_in_grid[static_cast<Eigen::Index>(it)] = mass[first + grid.items[it]];
+      const Eigen::Index r = grid.items[it];
+      slot[static_cast<std::size_t>(r)] = static_cast<int>(it);
+      mass_in_grid[static_cast<Eigen::Index>(it)] = normals_ ? mass[first + r] * factor[r] : mass[first + r];
+      row_scale[static_cast<Eigen::Index>(it)] = factor[r];
     }
+  }
+  // The query normal of local row i (null for the chord).
+  const Eigen::Vector3d* normal_of(Eigen::Index i, Eigen::Vector3d& buffer) const {
+    if (normals.rows() == 0) return nullptr;
+    buffer = normals.row(i).transpose();
+    return &buffer;
   }
 };
 
@@ -53,15 +74,19 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 
 // For each row i of a part, f(i, cols, weights, count): its neighbours within the cut (i itself
 // included, at distance 0) as part-local columns and kernel weights, in the grid's fixed order.
-template <class F>
-void for_each_row(const detail::Grid& grid, const detail::Kernel& kernel, const Eigen::MatrixX3d& positions, Eigen::Index first,
-                  Eigen::Index rows, bool in_grid_order, F&& f) {
+// Distances from the part's kernel: the chord, or the intrinsic one with the part's normals.
+template <class Part, class F>
+void for_each_row(const Part& part, const Eigen::MatrixX3d& positions, bool in_grid_order, F&& f) {
+  const detail::Grid& grid = part.grid;
+  const detail::Kernel& kernel = part.kernel;
+  const Eigen::Index first = part.first, rows = part.rows;
 #pragma omp parallel
   {
     detail::RowBuffer found;  // this thread's
+    Eigen::Vector3d normal;
 #pragma omp for schedule(dynamic, 64)
     for (Eigen::Index i = 0; i < rows; ++i) {
-      grid.gather_within(positions.row(first + i).transpose(), kernel.cut, found, in_grid_order);
+      grid.gather_within(positions.row(first + i).transpose(), kernel.cut, found, in_grid_order, part.normal_of(i, normal));
       const auto count = static_cast<Eigen::Index>(found.size);
       gaussian_weights(found.d2.data(), count, kernel.inv_4t, kernel.scale);
       f(i, found.col.data(), found.d2.data(), count);  // the weights may be overwritten
@@ -82,19 +107,23 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
   part_t_ = layout.part_t;
   t_ = layout.t, cut_ = layout.cut, length_scale_ = layout.length_scale, h_ = surfels.h;
   mass_ = measures.mu;
+  const bool intrinsic = options.surface_kernel == SurfaceKernel::Intrinsic;
+  if (intrinsic) detail::check_intrinsic_normals("MatrixFreeSurfaceOperator", measures, n);
   const Eigen::MatrixX3d positions = surfels.centres();
   a_diagonal_ = Eigen::VectorXd::Zero(n);
   l_row_sums_ = Eigen::VectorXd::Zero(n);
   for (std::size_t p = 0; p + 1 < row_offset_.size(); ++p) {
     const Eigen::Index first = row_offset_[p], rows = row_offset_[p + 1] - first;
-    part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_));
+    const Eigen::MatrixX3d normals = intrinsic ? Eigen::MatrixX3d(measures.normals.middleRows(first, rows)) : Eigen::MatrixX3d();
+    part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
     const Part& part = *part_.back();
-    for_each_row(part.grid, part.kernel, positions, first, rows, false, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
+    for_each_row(part, positions, true, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
+      const int self = part.slot[static_cast<std::size_t>(i)];
       double sum = 0;
       for (Eigen::Index k = 0; k < count; ++k)
-        if (col[k] != i) sum += w[k] * mass_[first + col[k]];
-      l_row_sums_[first + i] = sum;
-      a_diagonal_[first + i] = -mass_[first + i] * sum;
+        if (col[k] != self) sum += w[k] * part.mass_in_grid[col[k]];
+      l_row_sums_[first + i] = part.row_scale[self] * sum;
+      a_diagonal_[first + i] = -part.mass_in_grid[self] * sum;
     });
   }
   positions_ = positions;
@@ -106,8 +135,10 @@ double MatrixFreeSurfaceOperator::part_cut(std::size_t p) const {
 }
 
 double MatrixFreeSurfaceOperator::bytes() const {
-  // Positions (24), masses, diagonals (24), and per grid item its index and coordinates (32).
-  return 80.0 * static_cast<double>(rows());
+  // Positions (24), masses, diagonals (24), and per grid item its index and coordinates (32);
+  // with the intrinsic kernel, the normals twice (48) and the row scales (8).
+  const bool intrinsic = !part_.empty() && part_.front()->normals.rows() > 0;
+  return (intrinsic ? 136.0 : 80.0) * static_cast<double>(rows());
 }
 
 void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const {
@@ -123,8 +154,7 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   for (Eigen::Index it = 0; it < part.rows; ++it) xg.col(it) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
   Eigen::MatrixXd yt(b, part.rows);
   const double* mass = part.mass_in_grid.data();
-  for_each_row(part.grid, part.kernel, positions_, part.first, part.rows, true,
-               [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
+  for_each_row(part, positions_, true, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
                  // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
                  const int self = part.slot[static_cast<std::size_t>(i)];
                  double sum = 0;
@@ -135,7 +165,7 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
                  double* out = yt.col(i).data();
                  const double* xi = xg.col(self).data();
                  accumulate_row(w, col, count, xg.data(), b, out);
-                 const double scale = stiffness ? mass[self] : 1.0;
+                 const double scale = stiffness ? mass[self] : part.row_scale[self];
                  for (Eigen::Index c = 0; c < b; ++c) out[c] = scale * (out[c] - sum * xi[c]);
                });
   y = yt.transpose();

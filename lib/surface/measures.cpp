@@ -13,6 +13,7 @@ SurfelMeasures measures(const SurfelSet& surfels, const SurfelNormals& normals) 
   out.length_scale = normals.length_scale;
   out.normal_radius = normals.radius;
   out.surface_length_scales = normals.surface_length_scales;
+  out.normals = normals.normals;
   out.mu.resize(static_cast<Eigen::Index>(surfels.size()));
   const double h2 = surfels.h * surfels.h;
   for (std::size_t s = 0; s < surfels.size(); ++s) {

@@ -20,6 +20,20 @@
 namespace digilap::surface::detail {
 
 
+// The squared distance of SurfaceKernel::Intrinsic from the chord d = x_j - x_i and the normals'
+// sum s = n_i + n_j and difference e = n_j - n_i: the chord in the mean tangent plane plus the
+// second-order geodesic term,
+//   |d|^2 - <d, s>^2 / |s|^2 + <d, e>^2 / 12,
+// or the chord when the normals are more than 90 degrees apart (|s|^2 <= 2: two sides of a thin
+// wall, where no tangent plane is shared). Swapping i and j negates d and e exactly and leaves s
+// unchanged (addition commutes), so the result is the same bit for bit: A stays symmetric.
+inline double intrinsic_distance2(double dx, double dy, double dz, double sx, double sy, double sz, double ex, double ey, double ez) {
+  const double chord2 = dx * dx + dy * dy + dz * dz;
+  const double s2 = sx * sx + sy * sy + sz * sz;
+  const double height = dx * sx + dy * sy + dz * sz, bend = dx * ex + dy * ey + dz * ez;
+  return s2 > 2 ? chord2 - height * height / s2 + bend * bend / 12 : chord2;
+}
+
 // A row's columns and squared distances, before sorting (one per thread, reused).
 struct RowBuffer {
   std::vector<int> col;
@@ -42,7 +56,11 @@ struct Grid {
   std::vector<Eigen::Index> start, items;
   std::vector<double> xs, ys, zs;
 
-  Grid(const Eigen::MatrixX3d& p, double cut) {
+  // With `normals` (one row per point, SurfaceKernel::Intrinsic), gather_within can give the
+  // intrinsic distance instead of the chord; they are kept in the item order too.
+  std::vector<double> nxs, nys, nzs;
+
+  Grid(const Eigen::MatrixX3d& p, double cut, const Eigen::MatrixX3d* normals = nullptr) {
     const Eigen::Index n = p.rows();
     origin = p.colwise().minCoeff().transpose();
     const Eigen::Vector3d extent = p.colwise().maxCoeff().transpose() - origin;
@@ -60,7 +78,13 @@ struct Grid {
     reach = static_cast<int>(std::ceil(cut / cell));
     xs.resize(items.size()), ys.resize(items.size()), zs.resize(items.size());
     for (std::size_t it = 0; it < items.size(); ++it) xs[it] = p(items[it], 0), ys[it] = p(items[it], 1), zs[it] = p(items[it], 2);
+    if (normals) {
+      nxs.resize(items.size()), nys.resize(items.size()), nzs.resize(items.size());
+      for (std::size_t it = 0; it < items.size(); ++it)
+        nxs[it] = (*normals)(items[it], 0), nys[it] = (*normals)(items[it], 1), nzs[it] = (*normals)(items[it], 2);
+    }
   }
+  bool has_normals() const { return !nxs.empty() || items.empty(); }
   Eigen::Index index(double v, double o, Eigen::Index count) const {
     return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
   }
@@ -113,9 +137,30 @@ struct Grid {
   // With in_grid_order, the columns are positions in the grid's item order instead of rows
   // (the matrix-free products keep their vectors in that order: neighbours are then close in
   // memory).
-  void gather_within(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order = false) const {
+  // With a normal nq (the grid built with normals), the squared distances are the intrinsic
+  // ones (intrinsic_distance2); the neighbours are still those within `cut` along the chord.
+  void gather_within(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order = false,
+                     const Eigen::Vector3d* nq = nullptr) const {
     const double cut2 = cut * cut;
     found.size = 0;
+    if (nq) {
+      for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
+        found.reserve(found.size + static_cast<std::size_t>(last - first));
+        int* col = found.col.data();
+        double* d2 = found.d2.data();
+        std::size_t k = found.size;
+        for (Eigen::Index it = first; it < last; ++it) {
+          const auto u = static_cast<std::size_t>(it);
+          const double dx = xs[u] - q.x(), dy = ys[u] - q.y(), dz = zs[u] - q.z();
+          col[k] = static_cast<int>(in_grid_order ? it : items[u]);
+          d2[k] = intrinsic_distance2(dx, dy, dz, nxs[u] + nq->x(), nys[u] + nq->y(), nzs[u] + nq->z(), nxs[u] - nq->x(),
+                                      nys[u] - nq->y(), nzs[u] - nq->z());
+          k += dx * dx + dy * dy + dz * dz <= cut2;
+        }
+        found.size = k;
+      });
+      return;
+    }
     for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
       found.reserve(found.size + static_cast<std::size_t>(last - first));
       int* col = found.col.data();

@@ -2,6 +2,7 @@
 // pipeline from a surface or from voxels to the operator, and the x^2 error against SPEC §7.
 #pragma once
 
+#include "digilap/core/constants.hpp"
 #include "digilap/core/error.hpp"
 #include "digilap/core/heat_flow.hpp"
 #include "digilap/core/spectrum.hpp"
@@ -20,7 +21,7 @@
 
 namespace digilap::surface::test_support {
 
-constexpr double kPi = 3.14159265358979323846;
+using digilap::kPi;
 inline const Eigen::Vector3d kCentre(0.0123, -0.0371, 0.0217);  // off the lattice (SPEC §7)
 
 inline std::unique_ptr<Surface> posed(std::unique_ptr<Surface> s) {

@@ -46,3 +46,37 @@ TEST(SurfaceGroundTruth, UnknownFunctionsAndSizesAreRefused) {
   const SurfaceTestSamples s = sample_test_function(sphere, "x2", Eigen::MatrixX3d::Ones(3, 3));
   EXPECT_THROW(relative_max_error(Eigen::VectorXd::Zero(2), s), Error);
 }
+
+// sphere_spectrum: l(l+1) / r^2, each 2l + 1 times.
+TEST(SurfaceGroundTruth, SphereSpectrumHasItsMultiplicities) {
+  const Eigen::VectorXd s = sphere_spectrum(2.0, 17);
+  EXPECT_EQ(s[0], 0.0);
+  for (int k = 1; k <= 3; ++k) EXPECT_EQ(s[k], 0.5);   // l = 1: 2 / 4
+  for (int k = 4; k <= 8; ++k) EXPECT_EQ(s[k], 1.5);   // l = 2: 6 / 4
+  for (int k = 9; k <= 15; ++k) EXPECT_EQ(s[k], 3.0);  // l = 3: 12 / 4
+  EXPECT_EQ(s[16], 5.0);
+  EXPECT_THROW(sphere_spectrum(1.0, 0), Error);
+  EXPECT_THROW(sphere_spectrum(-1.0, 3), Error);
+}
+
+// torus_spectrum against closed forms in two limits. A thin torus (r / R = 0.02) is nearly the
+// flat torus 2 pi R x 2 pi r, whose eigenvalues are (n / R)^2 + (m / r)^2: the curvature terms
+// are O((r / R)^2) = 4e-4 relative on the m modes and O(r / R) = 2% on the n-only ones, which are
+// (n / R)^2 (1 + O(r/R)^2) once averaged over phi: asserted within 2e-3 (of max(1, value)). On
+// the ring torus R = 1, r = 0.4: sorted, n = 1 twice. (tests/python/test_fem_reference.py checks
+// it against the independent 4,096-node solver of the reference module, to 1e-5.)
+TEST(SurfaceGroundTruth, TorusSpectrumMatchesTheFlatLimitAndConverges) {
+  const double R = 50, r = 1;
+  const Eigen::VectorXd s = torus_spectrum(R, r, 40);
+  std::vector<double> flat;
+  for (int n = -40; n <= 40; ++n)
+    for (int m = -3; m <= 3; ++m) flat.push_back(n * n / (R * R) + m * m / (r * r));
+  std::sort(flat.begin(), flat.end());
+  EXPECT_EQ(s[0], 0.0);
+  for (int k = 1; k < 40; ++k) EXPECT_NEAR(s[k], flat[static_cast<std::size_t>(k)], 2e-3 * std::max(1.0, flat[static_cast<std::size_t>(k)])) << k;
+  const Eigen::VectorXd ring = torus_spectrum(1.0, 0.4, 20);
+  for (int k = 1; k < 20; ++k) EXPECT_GT(ring[k], ring[k - 1] - 1e-12);  // sorted
+  EXPECT_NEAR(ring[1], ring[2], 1e-9 * ring[1]);  // n = 1: twice
+  EXPECT_THROW(torus_spectrum(0.4, 1.0, 5), Error);
+  EXPECT_THROW(torus_spectrum(1.0, 0.4, 0), Error);
+}

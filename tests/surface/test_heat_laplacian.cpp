@@ -4,6 +4,9 @@
 #include "digilap/surface/heat_laplacian.hpp"
 #include "on_threads.hpp"
 #include "support.hpp"
+#include "surface/intrinsic_kernel.hpp"
+
+#include "digilap/surface/ground_truth.hpp"
 
 #include <gtest/gtest.h>
 
@@ -256,4 +259,155 @@ TEST(SurfaceParts, SpectraOfSeveralPartsAreBitwiseIndependentOfTheThreads) {
     EXPECT_EQ(one_per_part[q].eigenvalues, two_per_part[q].eigenvalues) << "part " << q;
     EXPECT_EQ(one_per_part[q].eigenvectors, two_per_part[q].eigenvectors) << "part " << q;
   }
+}
+
+// --- The intrinsic kernel (SurfaceKernel::Intrinsic, docs/accuracy.md "Why the torus stalls") ---
+
+namespace {
+struct Defaults {
+  SurfelSet surfels;
+  SurfelMeasures mu;
+};
+// The library's defaults (II normals, measured l, c_t = 0.1), on a surface posed off the lattice.
+Defaults defaults_pipeline(const Surface& s, double h) {
+  const VoxelSet voxels = digitize(s, h);
+  Defaults d;
+  d.surfels = extract_surfels(voxels);
+  d.mu = measures(d.surfels, ii_normals(voxels, d.surfels));
+  return d;
+}
+// The worst relative error of the first 19 nonzero Laplace-Beltrami estimates against `exact`.
+double worst_spectrum_error(const SurfaceOperator& op, const Eigen::VectorXd& exact) {
+  SpectrumOptions o;
+  o.count = 20;
+  const Spectrum s = smallest_eigenpairs(op, o);
+  return ((s.laplace_beltrami.segment(1, 19) - exact.segment(1, 19)).cwiseQuotient(exact.segment(1, 19))).cwiseAbs().maxCoeff();
+}
+SurfaceOperator with_kernel(const Defaults& d, SurfaceKernel kernel) {
+  HeatLaplacianOptions o;
+  o.surface_kernel = kernel;
+  return heat_laplacian(d.surfels, d.mu, o);
+}
+}  // namespace
+
+// The torus's spectrum (torus_spectrum, exact by separation of variables) at h = 0.05 with the
+// defaults: the chord kernel stalls at 4.00% (its curvature bias, about (5/4) t / r^2 on the modes
+// around the tube, and the staircase's jitter cross), the intrinsic one measures 1.47%. Asserted:
+// the intrinsic kernel within 2% and at most half the chord's error. The sphere (l(l+1)) at the
+// same step: 0.61% with the chord, 0.58% intrinsic; asserted within 0.8% and not worse than the
+// chord by more than 0.1 point.
+TEST(SurfaceIntrinsicKernel, TorusSpectrumErrorFallsAndTheSphereKeepsItsAccuracy) {
+  Torus torus;  // R = 1, r = 0.4
+  torus.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const Defaults t = defaults_pipeline(torus, 0.05);
+  const Eigen::VectorXd exact = torus_spectrum(1.0, 0.4, 20);
+  const double chord = worst_spectrum_error(with_kernel(t, SurfaceKernel::Chord), exact);
+  const double intrinsic = worst_spectrum_error(with_kernel(t, SurfaceKernel::Intrinsic), exact);
+  EXPECT_LT(intrinsic, 0.02) << "chord " << chord;
+  EXPECT_LT(intrinsic, 0.5 * chord);
+  Sphere sphere;
+  sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
+  const Defaults s = defaults_pipeline(sphere, 0.05);
+  const Eigen::VectorXd l_l1 = sphere_spectrum(1.0, 20);
+  const double sphere_chord = worst_spectrum_error(with_kernel(s, SurfaceKernel::Chord), l_l1);
+  const double sphere_intrinsic = worst_spectrum_error(with_kernel(s, SurfaceKernel::Intrinsic), l_l1);
+  EXPECT_LT(sphere_intrinsic, 0.008);
+  EXPECT_LT(sphere_intrinsic, sphere_chord + 0.001);
+}
+
+// The intrinsic operator keeps the structure: A symmetric bit for bit (the distance and the
+// factors are symmetric in i, j), rows of L summing to 0, off-diagonals >= 0, L = M^(-1) A to
+// rounding, the same bits for 1 and 2 threads; on every reference surface posed off the lattice.
+// And against a brute-force evaluation of its definition over all pairs, with the curvature
+// factors from the operator's own weights: off-diagonal A_ij / (w_ij m_i m_j) = c_i c_j.
+TEST(SurfaceIntrinsicKernel, StructureAndThreadIndependence) {
+  for (const char* name : {"sphere", "ellipsoid", "torus"}) {
+    const auto s = posed(make_surface(name));
+    const Defaults d = defaults_pipeline(*s, 0.15);
+    const SurfaceOperator one = on_threads(1, [&] { return with_kernel(d, SurfaceKernel::Intrinsic); });
+    const SurfaceOperator two = on_threads(2, [&] { return with_kernel(d, SurfaceKernel::Intrinsic); });
+    ASSERT_EQ(one.L.nonZeros(), two.L.nonZeros());
+    EXPECT_EQ(std::memcmp(one.L.valuePtr(), two.L.valuePtr(), sizeof(double) * one.L.nonZeros()), 0) << name;
+    EXPECT_EQ(std::memcmp(one.A.valuePtr(), two.A.valuePtr(), sizeof(double) * one.A.nonZeros()), 0) << name;
+    const Eigen::MatrixXd L(one.L), A(one.A);
+    EXPECT_EQ((A - A.transpose()).cwiseAbs().maxCoeff(), 0.0) << name;
+    const Eigen::Index n = one.rows();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      EXPECT_LE(std::abs(L.row(i).sum()), 1e-12 * std::max(1.0, std::abs(L(i, i)))) << name;
+      if (one.mass[i] > 0) EXPECT_LE((A.row(i) - one.mass[i] * L.row(i)).cwiseAbs().maxCoeff(), 1e-12 * A.row(i).cwiseAbs().maxCoeff());
+    }
+    EXPECT_GE((L - Eigen::MatrixXd(L.diagonal().asDiagonal())).minCoeff(), 0.0) << name;
+    // Against the definition over all pairs: w(d_ij) m_i m_j c_i c_j, d the intrinsic distance
+    // (written out here again), c the curvature factors (one connected surface: one part).
+    const Eigen::MatrixX3d& x = one.positions;
+    const Eigen::MatrixX3d& nrm = d.mu.normals;
+    const double t = one.t;
+    ASSERT_EQ(one.row_offset.size(), 2u) << name;
+    const surface::detail::Kernel kernel(t, 6.0);
+    const surface::detail::Grid grid(x, kernel.cut, &nrm);
+    const Eigen::VectorXd c = surface::detail::curvature_factors(surface::detail::estimated_gaussian_curvature(grid, x, nrm, one.mass, kernel), t);
+    int checked = 0;
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const Eigen::Vector3d dx = (x.row(j) - x.row(i)).transpose(), sum = (nrm.row(i) + nrm.row(j)).transpose(),
+                              diff = (nrm.row(j) - nrm.row(i)).transpose();
+        if (i == j || dx.squaredNorm() > one.cut * one.cut) continue;
+        double d2 = dx.squaredNorm();
+        if (sum.squaredNorm() > 2) d2 += -std::pow(dx.dot(sum), 2) / sum.squaredNorm() + std::pow(dx.dot(diff), 2) / 12;
+        const double a = std::exp(-d2 / (4 * t)) / (4 * kPi * t * t) * one.mass[i] * c[i] * one.mass[j] * c[j];
+        EXPECT_NEAR(A(i, j), a, 1e-12 * std::abs(A(i, i))) << name << " " << i << " " << j;
+        ++checked;
+      }
+    EXPECT_GT(checked, 100) << name;
+  }
+}
+
+// The curvature factors come from an estimate of the Gaussian curvature K: on the unit sphere
+// K = 1 everywhere, on the torus (R = 1, r = 0.4) K = cos(phi) / (r (R + r cos(phi))), from
+// -4.17 to 1.79. At h = 0.025, measured mean absolute errors over the surfels: sphere 0.0042
+// (exact normals) and 0.012 (II), torus 0.026 and 0.047; the sphere's mean K 0.9999 and 0.9987.
+// Asserted: twice the measured errors, and the sphere's mean within 0.005 of 1.
+TEST(SurfaceIntrinsicKernel, GaussianCurvatureEstimate) {
+  for (bool exact : {true, false}) {
+    for (const char* name : {"sphere", "torus"}) {
+      const auto s = make_surface(name);
+      s->set_pose(kCentre, Eigen::Matrix3d::Identity());
+      const VoxelSet voxels = digitize(*s, 0.025);
+      const SurfelSet surfels = extract_surfels(voxels);
+      const SurfelNormals normals = exact ? exact_normals(*s, surfels) : ii_normals(voxels, surfels);
+      const SurfelMeasures mu = measures(surfels, normals);
+      const Eigen::MatrixX3d x = surfels.centres();
+      const surface::detail::Kernel kernel(heat_time(surfels.h, {}, mu.length_scale), 6.0);
+      const surface::detail::Grid grid(x, kernel.cut, &mu.normals);
+      const Eigen::VectorXd K = surface::detail::estimated_gaussian_curvature(grid, x, mu.normals, mu.mu, kernel);
+      double error = 0;
+      for (Eigen::Index i = 0; i < x.rows(); ++i) {
+        const Eigen::Vector3d p = s->closest_point(x.row(i).transpose()) - kCentre;
+        double truth = 1;
+        if (std::string(name) == "torus") {
+          const double rho = std::hypot(p.x(), p.y()), cos_phi = (rho - 1) / std::hypot(rho - 1, p.z());
+          truth = cos_phi / (0.4 * (1 + 0.4 * cos_phi));
+        }
+        error += std::abs(K[i] - truth);
+      }
+      error /= static_cast<double>(x.rows());
+      const bool sphere = std::string(name) == "sphere";
+      if (sphere) EXPECT_NEAR(K.mean(), 1.0, 0.005) << "exact normals " << exact;
+      EXPECT_LT(error, sphere ? (exact ? 0.0085 : 0.025) : (exact ? 0.05 : 0.095)) << name << ", exact normals " << exact;
+    }
+  }
+}
+
+// Measures without normals (built by hand) cannot give the intrinsic kernel: a clear error.
+TEST(SurfaceIntrinsicKernel, MeasuresWithoutNormalsAreRefused) {
+  Sphere sphere;
+  Defaults d = defaults_pipeline(sphere, 0.2);
+  d.mu.normals.resize(0, 3);
+  HeatLaplacianOptions o;
+  o.surface_kernel = SurfaceKernel::Intrinsic;
+  EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);
+  EXPECT_NO_THROW(heat_laplacian(d.surfels, d.mu));  // the chord needs none
+  d = defaults_pipeline(sphere, 0.2);
+  d.mu.normals(3, 1) = std::nan("");
+  EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);
 }

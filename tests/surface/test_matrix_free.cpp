@@ -37,10 +37,14 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
   // 1e-14: both sum the same terms of one row, in another order and with the diagonal folded in
   // (sum_j a_ij (x_j - x_i) against sum_j a_ij x_j - x_i sum_j a_ij): a few ulps of |A| |x|
   // (the issue asks 1e-12).
-  for (const VoxelSet& set : {two_balls(), real_label()}) {
+  // Both kernels: the intrinsic one adds the normals' distance and the curvature factors.
+  for (const VoxelSet& set : {two_balls(), real_label()})
+  for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
     const Pipeline p = filtered(set);
-    const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
-    const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+    HeatLaplacianOptions options;
+    options.surface_kernel = kernel;
+    const SurfaceOperator op = heat_laplacian(p.surfels, p.mu, options);
+    const MatrixFreeSurfaceOperator free(p.surfels, p.mu, options);
     ASSERT_EQ(free.rows(), op.rows());
     EXPECT_EQ(free.row_offset(), op.row_offset);
     EXPECT_EQ(free.part_t(), op.part_t);
@@ -57,9 +61,15 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
 }
 
 TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
+  for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
   const Pipeline p = filtered(two_balls());
-  const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+  HeatLaplacianOptions options;
+  options.surface_kernel = kernel;
+  const MatrixFreeSurfaceOperator free = on_threads(1, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
+  const MatrixFreeSurfaceOperator built_on_two = on_threads(2, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
   const Eigen::MatrixXd x = block(free.rows(), 5);
+  Eigen::MatrixXd other;
+  built_on_two.apply_stiffness(x, other);
   Eigen::MatrixXd one, two;
   omp_set_num_threads(1);
   free.apply_stiffness(x, one);
@@ -67,16 +77,21 @@ TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
   free.apply_stiffness(x, two);
   ASSERT_EQ(one.size(), two.size());
   EXPECT_EQ(std::memcmp(one.data(), two.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0);
+  EXPECT_EQ(std::memcmp(one.data(), other.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0);  // its factors too
+  }
 }
 
 TEST(MatrixFreeSurface, SpectrumEqualsTheAssembledOperators) {
   // Eigenvalues within 1e-9 relative: both solvers stop at a residual of 1e-10 of the
   // operator's scale, and an eigenvalue's error is the square of that over the gap.
   // Eigenvectors of simple eigenvalues within 1e-6 (the residual over the gap).
-  for (const VoxelSet& set : {two_balls(), real_label()}) {
+  for (const VoxelSet& set : {two_balls(), real_label()})
+  for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
     const Pipeline p = filtered(set);
-    const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
-    const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+    HeatLaplacianOptions options;
+    options.surface_kernel = kernel;
+    const SurfaceOperator op = heat_laplacian(p.surfels, p.mu, options);
+    const MatrixFreeSurfaceOperator free(p.surfels, p.mu, options);
     SpectrumOptions o;
     o.count = 8;
     const Spectrum stored = smallest_eigenpairs(op, o), products = smallest_eigenpairs(free, o);
@@ -98,6 +113,11 @@ TEST(MatrixFreeSurface, SpectrumEqualsTheAssembledOperators) {
 TEST(MatrixFreeSurface, BadRequestsAreRefused) {
   const Pipeline p = filtered(two_balls());
   const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+  SurfelMeasures without_normals = p.mu;
+  without_normals.normals.resize(0, 3);
+  HeatLaplacianOptions intrinsic;
+  intrinsic.surface_kernel = SurfaceKernel::Intrinsic;
+  EXPECT_THROW(MatrixFreeSurfaceOperator(p.surfels, without_normals, intrinsic), Error);  // the kernel needs the normals
   SpectrumOptions o;
   o.count = 0;
   EXPECT_THROW(smallest_eigenpairs(free, o), Error);

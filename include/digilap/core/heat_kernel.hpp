@@ -11,6 +11,17 @@ enum class DistanceMode { Geodesic, Euclidean };
 /// Curves only. Where the elements sit: on the pointels (the paper's vertices, measure mu(v)) or on the
 /// linel midpoints (DGtal's "dual" operator, measure mu(l)).
 enum class Placement { Pointels, Linels };
+/// Surfaces only. The kernel's distance between two surfels (docs/accuracy.md, "Why the torus
+/// stalls"): the chord |x_i - x_j| (SPEC §7), or the intrinsic one, which follows the surface
+/// with the normals n: the chord in the mean tangent plane, m = (n_i + n_j) / |n_i + n_j|, plus
+/// the second-order geodesic term,
+///   d^2 = |x_j - x_i|^2 - <x_j - x_i, m>^2 + <x_j - x_i, n_j - n_i>^2 / 12,
+/// (the tangent part removes the staircase's jitter of the centres along the normal, the last
+/// term the chord's shortening on a curved surface), each weight times (1 + g_i)(1 + g_j),
+/// g = (2/3) t K with K the Gaussian curvature estimated from the kernel-weighted pair moments
+/// of positions and normals (it takes out the geodesic Gaussian's own -(4/3) K t bias). Pairs
+/// whose normals are more than 90 degrees apart keep the chord and stay out of K.
+enum class SurfaceKernel { Chord, Intrinsic };
 
 struct HeatLaplacianOptions {
   /// Heat time. 0 (the default) means t = c_t h^(2/3) l^(4/3), l the length scale.
@@ -32,6 +43,8 @@ struct HeatLaplacianOptions {
   /// not join disconnected pieces; each surface has its own rows, heat time (as contours do,
   /// per_contour_time) and zero eigenvalue.
   bool couple_surfaces = false;
+  /// Surfaces only: the kernel's distance (SurfaceKernel). Intrinsic needs the measures' normals.
+  SurfaceKernel surface_kernel = SurfaceKernel::Chord;
   /// Kernel cut at distance k * sqrt(t). k = 6 leaves under 1e-3 of the kernel's second moment
   /// outside (DGtal's K = 3 in its K sqrt(2t) convention is our k = 4.24).
   double k = 6.0;

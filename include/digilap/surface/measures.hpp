@@ -14,6 +14,9 @@ struct SurfelMeasures {
   double normal_radius = 0;
   /// l_c of each connected surface (SurfelNormals::surface_length_scales; empty when l was given).
   std::vector<double> surface_length_scales;
+  /// The unit normals the areas came from (SurfaceKernel::Intrinsic needs them; measures built
+  /// by hand may leave them empty).
+  Eigen::MatrixX3d normals;
   double total_area() const { return mu.sum(); }
 };
 

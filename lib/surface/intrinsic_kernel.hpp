@@ -1,0 +1,50 @@
+// Internal: the per-surfel factors of SurfaceKernel::Intrinsic (core/heat_kernel.hpp), shared by
+// the assembled operator, the matrix-free products and the distributed rows.
+//
+// The Gaussian of the geodesic distance has its own O(t) bias on a curved surface: its second
+// moment is short by (4/3) K t, K the Gaussian curvature (the sphere's l(l+1) comes out low by
+// that much). Each weight w_ij is multiplied by (1 + g_i)(1 + g_j), g = (2/3) t K, to first
+// order the same as 1 + (2/3) t (K_i + K_j), and written as a diagonal scaling: the weights'
+// measures mu_i (1 + g_i), the mass matrix unchanged.
+//
+// K comes from the positions and normals alone, as kernel-weighted moments over each surfel's
+// neighbours j (rho^2 = the tangent chord, w = exp(-rho^2 / 4t), sums weighted by w rho^2 mu_j):
+//   H = sum w <x_j - x_i, n_j - n_i> / sum w rho^2        (the mean curvature, <d, e> ~ k_n rho^2)
+//   (k1^2 + k2^2) / 2 = sum w |n_j - n_i|^2 / sum w rho^2
+//   K = k1 k2 = 2 H^2 - (k1^2 + k2^2) / 2.
+// Ratios of sums weighted by rho^2 so that the normals' noise (|n_j - n_i|^2 does not shrink with
+// rho) is not divided by small rho^2. g is clamped to [-1/4, 1/4]: the correction is a first-order
+// one, and a jagged real surface's K estimate may be large where t K is not small.
+#pragma once
+
+#include "digilap/core/error.hpp"
+#include "digilap/surface/measures.hpp"
+#include "surfel_grid.hpp"
+
+#include <Eigen/Core>
+
+#include <string>
+
+namespace digilap::surface::detail {
+
+/// Throws digilap::Error unless `measures` carry a finite normal for each of the n surfels.
+inline void check_intrinsic_normals(const std::string& who, const SurfelMeasures& measures, Eigen::Index n) {
+  if (measures.normals.rows() != n)
+    throw Error(who + ": the intrinsic kernel needs the measures' normals, and they hold " + std::to_string(measures.normals.rows()) +
+                " for " + std::to_string(n) + " surfels (surface::measures() keeps them; measures built by hand must set them)");
+  if (!measures.normals.allFinite()) throw Error(who + ": the measures' normals are not all finite numbers");
+}
+
+/// The largest |g| = |(2/3) t K| applied.
+constexpr double kMaxCurvatureCorrection = 0.25;
+
+/// K of each point of `grid` (built with normals over a part's points, rows local to it), from
+/// its neighbours within the kernel's cut whose normals are within 90 degrees; `mu` the part's
+/// measures by local row. 0 where no neighbour counts. Deterministic, parallel over rows.
+Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
+                                             const Eigen::VectorXd& mu, const Kernel& kernel);
+
+/// 1 + g_i, g_i = (2/3) t K_i clamped to [-kMaxCurvatureCorrection, kMaxCurvatureCorrection].
+Eigen::VectorXd curvature_factors(const Eigen::VectorXd& gaussian_curvature, double t);
+
+}  // namespace digilap::surface::detail
