@@ -63,6 +63,16 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
       ->capture_default_str();
 }
 
+void add_surface_kernel_option(CLI::App& app, SurfaceKernel& kernel) {
+  const std::map<std::string, SurfaceKernel> kernels{{"chord", SurfaceKernel::Chord}, {"intrinsic", SurfaceKernel::Intrinsic}};
+  app.add_option("--surface-kernel", kernel,
+                 "Surfaces: the kernel's distance, chord (|x_i - x_j|) or intrinsic (tangent-plane chord plus the geodesic "
+                 "term from the normals, weights corrected for the Gaussian curvature)")
+      ->transform(CLI::CheckedTransformer(kernels, CLI::ignore_case).description(""))
+      ->type_name("{chord,intrinsic}")
+      ->default_str(kernel == SurfaceKernel::Chord ? "chord" : "intrinsic");
+}
+
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
   app.add_option("--t", o.t, "Heat time t (0: ct h^(2/3) l^(4/3), l the length scale)")->capture_default_str();
   app.add_option("--ct", o.c_t, "Constant of the default heat time t = ct h^(2/3) l^(4/3)")->check(kPositiveFinite)->capture_default_str();
@@ -79,14 +89,7 @@ void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
       ->transform(CLI::CheckedTransformer(placements, CLI::ignore_case).description(""))
       ->type_name("{pointels,linels}")
       ->default_str("pointels");
-  const std::map<std::string, SurfaceKernel> surface_kernels{{"chord", SurfaceKernel::Chord},
-                                                             {"intrinsic", SurfaceKernel::Intrinsic}};
-  app.add_option("--surface-kernel", o.surface_kernel,
-                 "Surfaces: the kernel's distance, chord (|x_i - x_j|) or intrinsic (tangent-plane chord plus the geodesic "
-                 "term from the normals, weights corrected for the Gaussian curvature)")
-      ->transform(CLI::CheckedTransformer(surface_kernels, CLI::ignore_case).description(""))
-      ->type_name("{chord,intrinsic}")
-      ->default_str(o.surface_kernel == SurfaceKernel::Chord ? "chord" : "intrinsic");
+  add_surface_kernel_option(app, o.surface_kernel);
   app.add_option("--memory-limit", o.memory_limit_bytes, "Refuse operators estimated larger than this many bytes")
       ->check(CLI::Validator(
           [](std::string& text) {

@@ -36,6 +36,8 @@ struct FrontEndOptions {
 
 void add_front_end_options(CLI::App& app, FrontEndOptions& options, bool with_h = true);
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& options);
+/// --surface-kernel {chord,intrinsic} (part of add_operator_options; the distributed app's own).
+void add_surface_kernel_option(CLI::App& app, SurfaceKernel& kernel);
 /// --kR as given, or the default of the dimension's II normals (curves 2, surfaces 1: two
 /// studies, normals.hpp and surface/normals.hpp) when it was not.
 double ii_k_R(double given, int dimension);

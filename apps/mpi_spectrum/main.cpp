@@ -7,6 +7,7 @@
 // their eigenvectors: one PLY gathered on rank 0 when N <= --gather-limit, else one PLY per rank
 // (surfels.rank-0000.ply ...) and surfels_index.csv saying which rows and planes each holds.
 // --save-operator writes L, A and mu in PETSc's binary format (MatLoad / VecLoad, petsc4py).
+#include "../common/options.hpp"
 #include "../common/progress.hpp"
 
 #include "digilap/core/error.hpp"
@@ -258,6 +259,7 @@ int main(int argc, char** argv) {
   app.add_option("--t", o.surface.op.t, "Heat time t (0: ct h^(2/3) l^(4/3))")->check(CLI::NonNegativeNumber)->capture_default_str();
   app.add_option("--ct", o.surface.op.c_t, "Constant of the default heat time")->check(CLI::PositiveNumber)->capture_default_str();
   app.add_option("--k", o.surface.op.k, "Kernel cut at k sqrt(t)")->check(CLI::PositiveNumber)->capture_default_str();
+  app::add_surface_kernel_option(app, o.surface.op.surface_kernel);
   app.add_flag("--one-heat-time{false}", o.surface.op.per_contour_time, "One t for all surfaces (default: each surface its own)");
   app.add_option("--memory-limit", o.surface.op.memory_limit_bytes, "Refuse operators estimated larger than this per rank (bytes)")
       ->check(CLI::PositiveNumber)
