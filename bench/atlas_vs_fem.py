@@ -66,6 +66,7 @@ def main():
     parser.add_argument("--smoothing", type=int, default=10, help="Taubin iterations of the mesh (BrainPrint: none)")
     parser.add_argument("--csv", default="atlas_vs_fem.csv")
     parser.add_argument("--quiet", action="store_true")
+    parser.add_argument("--kernel", default=None, help="digilap's surface kernel: chord or intrinsic (default: the library's)")
     args = parser.parse_args()
 
     import nibabel
@@ -85,7 +86,8 @@ def main():
             print("\ratlas_vs_fem: label %d (%d/%d)" % (label, n + 1, len(labels)), end="", file=sys.stderr, flush=True)
         mask, components = largest_component(seg == label)
         start = time.perf_counter()
-        table = digilap.surface.shape_dna(mask.astype(np.uint8), labels=[1], count=args.count, h=h, largest=True)
+        table = digilap.surface.shape_dna(mask.astype(np.uint8), labels=[1], count=args.count, h=h, largest=True,
+                                          **({"kernel": args.kernel} if args.kernel else {}))
         totals["digilap"] += time.perf_counter() - start
         start = time.perf_counter()
         fem, fem_area, fem_volume, vertices = fem_spectrum(mask, h, args.count, args.smoothing)

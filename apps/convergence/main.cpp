@@ -159,6 +159,7 @@ int main(int argc, char** argv) {
   app.add_option("--sampling", sampling, "Where g is sampled: closest (orthogonal projection) or radial")
       ->check(CLI::IsMember({"closest", "radial"}))
       ->capture_default_str();
+  app::add_surface_kernel_option(app, base.surface_kernel);
   bool matrix_free = false;
   app.add_flag("--matrix-free", matrix_free,
                "Surfaces: each L g computed on the fly, never stored (memory O(N): reaches h = 0.005 on the unit sphere)");
@@ -183,6 +184,7 @@ int main(int argc, char** argv) {
       return surface_convergence(shape_name, function, steps, base, k_R, length_scale, centre, rotate_degrees, matrix_free, out_dir,
                                  progress);
     }
+    if (app.count("--surface-kernel") > 0) throw Error("--surface-kernel is for surfaces (--shape sphere, ellipsoid or torus)");
     if (matrix_free) throw Error("--matrix-free is for surfaces here (contours: the convergence sweep is assembled; digilap-spectrum --matrix-free)");
     auto shape = make_shape(shape_name);
     if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");

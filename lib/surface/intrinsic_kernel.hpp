@@ -31,7 +31,8 @@ namespace digilap::surface::detail {
 inline void check_intrinsic_normals(const std::string& who, const SurfelMeasures& measures, Eigen::Index n) {
   if (measures.normals.rows() != n)
     throw Error(who + ": the intrinsic kernel needs the measures' normals, and they hold " + std::to_string(measures.normals.rows()) +
-                " for " + std::to_string(n) + " surfels (surface::measures() keeps them; measures built by hand must set them)");
+                " for " + std::to_string(n) + " surfels (surface::measures() keeps them; measures built by hand must set them, or "
+                "choose the chord kernel, HeatLaplacianOptions::surface_kernel = SurfaceKernel::Chord)");
   if (!measures.normals.allFinite()) throw Error(who + ": the measures' normals are not all finite numbers");
 }
 

@@ -155,6 +155,7 @@ TEST(Mpi, DistributedOperatorEqualsTheSerialOneRowForRow) {
     SCOPED_TRACE(c.name);
     mpi::DistributedSurfaceOptions o;
     o.min_surfels = c.min_surfels, o.largest_only = c.largest, o.length_scale = c.length_scale;
+    o.op.surface_kernel = SurfaceKernel::Chord;  // bit for bit (the intrinsic kernel: below)
     const Serial s = serial(path, o);
     const mpi::DistributedSurfaceOperator d = mpi::distributed_surface_operator(PETSC_COMM_WORLD, path, o);
     ASSERT_EQ(d.size, static_cast<std::int64_t>(s.surfels.size()));
@@ -243,7 +244,8 @@ TEST(Mpi, AwkwardSlabsGiveTheSerialRows) {
   MPI_Comm_size(PETSC_COMM_WORLD, &ranks);
   for (const Layout& layout : layouts) {
     SCOPED_TRACE(layout.name);
-    const mpi::DistributedSurfaceOptions o;
+    mpi::DistributedSurfaceOptions o;
+    o.op.surface_kernel = SurfaceKernel::Chord;  // bit for bit
     const Serial s = serial(layout.path, o);
     const mpi::DistributedSurfaceOperator d = mpi::distributed_surface_operator(PETSC_COMM_WORLD, layout.path, o);
     ASSERT_EQ(d.size, static_cast<std::int64_t>(s.surfels.size()));

@@ -307,7 +307,7 @@ def test_surface_pipeline_in_python(tmp_path):
     voxels = surface.digitize(sphere, 0.1)
     surfels = surface.extract_surfels(voxels)
     mu = surface.measures(surfels, surface.ii_normals(voxels, surfels, k_R=1.0, length_scale=1.0))
-    op = surface.heat_laplacian(surfels, mu, c_t=0.03, length_scale=1.0)
+    op = surface.heat_laplacian(surfels, mu, c_t=0.03, length_scale=1.0, kernel="chord")  # SPEC §7's kernel
     assert isinstance(op.L, scipy.sparse.csr_matrix) and op.positions.shape == (len(surfels), 3)
     assert (op.A != op.A.T).nnz == 0
     p = np.array([sphere.closest_point(x) for x in op.positions])

@@ -36,8 +36,8 @@ struct Pipeline {
   SurfaceOperator op;
 };
 
-// The reference computation's parameters: t = c_t h^(2/3) (c_t = 0.03), k = 6, II normals
-// k_R = 1 (l = 1), or the exact normals.
+// The reference computation's parameters: t = c_t h^(2/3) (c_t = 0.03), k = 6, the chord
+// kernel, II normals k_R = 1 (l = 1), or the exact normals.
 inline Pipeline run(const Surface& s, double h, bool exact = false, double c_t = 0.03) {
   Pipeline p;
   p.voxels = digitize(s, h);
@@ -45,6 +45,7 @@ inline Pipeline run(const Surface& s, double h, bool exact = false, double c_t =
   p.mu = measures(p.surfels, exact ? exact_normals(s, p.surfels, 1.0) : ii_normals(p.voxels, p.surfels, {1.0, 1.0}));
   HeatLaplacianOptions o;
   o.c_t = c_t;
+  o.surface_kernel = SurfaceKernel::Chord;  // SPEC §7's, as the reference implementation
   p.op = heat_laplacian(p.surfels, p.mu, o);
   return p;
 }

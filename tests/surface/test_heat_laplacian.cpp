@@ -406,7 +406,9 @@ TEST(SurfaceIntrinsicKernel, MeasuresWithoutNormalsAreRefused) {
   HeatLaplacianOptions o;
   o.surface_kernel = SurfaceKernel::Intrinsic;
   EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);
-  EXPECT_NO_THROW(heat_laplacian(d.surfels, d.mu));  // the chord needs none
+  o.surface_kernel = SurfaceKernel::Chord;
+  EXPECT_NO_THROW(heat_laplacian(d.surfels, d.mu, o));  // the chord needs none
+  o.surface_kernel = SurfaceKernel::Intrinsic;
   d = defaults_pipeline(sphere, 0.2);
   d.mu.normals(3, 1) = std::nan("");
   EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);

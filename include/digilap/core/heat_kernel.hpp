@@ -44,7 +44,7 @@ struct HeatLaplacianOptions {
   /// per_contour_time) and zero eigenvalue.
   bool couple_surfaces = false;
   /// Surfaces only: the kernel's distance (SurfaceKernel). Intrinsic needs the measures' normals.
-  SurfaceKernel surface_kernel = SurfaceKernel::Chord;
+  SurfaceKernel surface_kernel = SurfaceKernel::Intrinsic;
   /// Kernel cut at distance k * sqrt(t). k = 6 leaves under 1e-3 of the kernel's second moment
   /// outside (DGtal's K = 3 in its K sqrt(2t) convention is our k = 4.24).
   double k = 6.0;
