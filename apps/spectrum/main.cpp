@@ -167,7 +167,11 @@ int main(int argc, char** argv) {
   app.add_option("--draw", draw, "Eigenvectors drawn in the SVG")->capture_default_str();
   app.add_flag("--matrix-free", matrix_free,
                "Never store L: products computed on the fly and LOBPCG; memory O(N count) (curves: geodesic distance\n"
-               "only; surfaces: O(N) memory, preconditioned, the choice for large N, see docs/benchmarks.md)");
+               "only; surfaces and volumes: the default, O(N) memory, preconditioned, see docs/benchmarks.md)");
+  bool assembled = false;
+  app.add_flag("--assembled", assembled,
+               "Surfaces and volumes: store L and A and solve on them (the default there is matrix-free: as fast or\n"
+               "faster and 2-13x lighter, measured in docs/benchmarks.md)");
   app.add_flag("--per-contour", per_contour,
                "The spectrum of each contour on its own (one table per contour; the shape descriptor of each object)");
   app::add_output_options(app, out_dir, quiet);
@@ -175,13 +179,16 @@ int main(int argc, char** argv) {
 
   return app::guarded_main([&] {
     app::check_options_for_input(app, fe_options);
+    if (assembled && matrix_free) throw Error("--assembled and --matrix-free: give one of them");
+    if (assembled && !app::is_surface_input(fe_options)) throw Error("--assembled is for surfaces and volumes (curves are assembled unless --matrix-free)");
+    const bool surface_matrix_free = !assembled;  // surfaces and volumes
     app::Progress progress(quiet);
     if (!labels.empty()) {
       if (fe_options.volume.empty()) throw Error("--labels needs a segmentation (--volume FILE)");
       if (fe_options.label >= 0) throw Error("--labels and --label: give one of them");
       batch.labels = labels;
       batch.count = count_option->count() > 0 ? spectrum_options.count : 50;
-      batch.matrix_free = matrix_free;
+      batch.matrix_free = surface_matrix_free;
       app::run_label_batch(fe_options, op_options, batch, out_dir, progress);
       return 0;
     }
@@ -189,7 +196,7 @@ int main(int argc, char** argv) {
       throw Error("--names, --normalize and --reweight go with --labels");
     if (app::is_surface_input(fe_options)) {
       if (per_contour) throw Error("--per-contour is for curves (per-surface spectra: smallest_eigenpairs_per_part)");
-      return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, matrix_free, progress);
+      return surface_spectrum(fe_options, op_options, spectrum_options, out_dir, draw, surface_matrix_free, progress);
     }
     const app::FrontEnd fe = app::run_front_end(fe_options, progress);
     // What the tables and files need, from either operator.
