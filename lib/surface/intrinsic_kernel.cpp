@@ -1,5 +1,7 @@
 #include "intrinsic_kernel.hpp"
 
+#include "core/gaussian_kernel.hpp"
+
 #include <algorithm>
 #include <cmath>
 
@@ -11,34 +13,43 @@ Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::Matr
   Eigen::VectorXd mu_in_grid(n);
   for (std::size_t it = 0; it < grid.items.size(); ++it) mu_in_grid[static_cast<Eigen::Index>(it)] = mu[grid.items[it]];
   Eigen::VectorXd curvature(n);
-  const double cut2 = kernel.cut * kernel.cut;
-#pragma omp parallel for schedule(dynamic, 64)
-  for (Eigen::Index i = 0; i < n; ++i) {
-    const Eigen::Vector3d q = positions.row(i).transpose(), nq = normals.row(i).transpose();
-    double weight = 0, bend = 0, turn = 0;  // sums over the neighbours, in the grid's fixed order
-    grid.for_candidates(q, kernel.cut, [&](Eigen::Index first, Eigen::Index last) {
-      for (Eigen::Index it = first; it < last; ++it) {
-        const auto u = static_cast<std::size_t>(it);
+#pragma omp parallel
+  {
+    RowBuffer found;                         // this thread's: neighbours in grid order, chords
+    std::vector<double> rho2, bend, turn;    // per neighbour; rho2 becomes the weight
+#pragma omp for schedule(dynamic, 64)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const Eigen::Vector3d q = positions.row(i).transpose(), nq = normals.row(i).transpose();
+      grid.gather_within(q, kernel.cut, found, true);
+      const std::size_t count = found.size;
+      if (rho2.size() < count) rho2.resize(count), bend.resize(count), turn.resize(count);
+      for (std::size_t k = 0; k < count; ++k) {
+        const auto u = static_cast<std::size_t>(found.col[k]);
         const double dx = grid.xs[u] - q.x(), dy = grid.ys[u] - q.y(), dz = grid.zs[u] - q.z();
-        const double chord2 = dx * dx + dy * dy + dz * dz;
         const double sx = grid.nxs[u] + nq.x(), sy = grid.nys[u] + nq.y(), sz = grid.nzs[u] + nq.z();
         const double ex = grid.nxs[u] - nq.x(), ey = grid.nys[u] - nq.y(), ez = grid.nzs[u] - nq.z();
-        const double s2 = sx * sx + sy * sy + sz * sz;
-        if (chord2 > cut2 || !(s2 > 2) || chord2 == 0) continue;  // outside, across a wall, or itself
-        const double height = dx * sx + dy * sy + dz * sz;
-        const double rho2 = chord2 - height * height / s2;
-        const double w = std::exp(-rho2 * kernel.inv_4t) * mu_in_grid[it];
-        weight += w * rho2;
-        bend += w * (dx * ex + dy * ey + dz * ez);
-        turn += w * (ex * ex + ey * ey + ez * ez);
+        const double s2 = sx * sx + sy * sy + sz * sz, height = dx * sx + dy * sy + dz * sz;
+        // Across a wall (normals more than 90 degrees apart) or itself: no weight (mu factor 0).
+        const bool counts = s2 > 2 && found.d2[k] > 0;
+        rho2[k] = counts ? found.d2[k] - height * height / s2 : 0.0;
+        bend[k] = counts ? (dx * ex + dy * ey + dz * ez) * mu_in_grid[static_cast<Eigen::Index>(u)] : 0.0;
+        turn[k] = counts ? (ex * ex + ey * ey + ez * ez) * mu_in_grid[static_cast<Eigen::Index>(u)] : 0.0;
+        found.d2[k] = counts ? rho2[k] * mu_in_grid[static_cast<Eigen::Index>(u)] : 0.0;  // rho^2 mu_j
       }
-    });
-    double k = 0;
-    if (weight > 0) {
-      const double mean = bend / weight;
-      k = 2 * mean * mean - turn / weight;
+      gaussian_weights(rho2.data(), static_cast<Eigen::Index>(count), kernel.inv_4t, 1.0);  // w = exp(-rho^2 / 4t), vectorized
+      double weight = 0, bend_sum = 0, turn_sum = 0;  // in the grid's fixed order
+      for (std::size_t k = 0; k < count; ++k) {
+        weight += rho2[k] * found.d2[k];
+        bend_sum += rho2[k] * bend[k];
+        turn_sum += rho2[k] * turn[k];
+      }
+      double k_estimate = 0;
+      if (weight > 0) {
+        const double mean = bend_sum / weight;
+        k_estimate = 2 * mean * mean - turn_sum / weight;
+      }
+      curvature[i] = k_estimate;
     }
-    curvature[i] = k;
   }
   return curvature;
 }
