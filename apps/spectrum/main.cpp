@@ -170,8 +170,8 @@ int main(int argc, char** argv) {
                "only; surfaces and volumes: the default, O(N) memory, preconditioned, see docs/benchmarks.md)");
   bool assembled = false;
   app.add_flag("--assembled", assembled,
-               "Surfaces and volumes: store L and A and solve on them (the default there is matrix-free: as fast or\n"
-               "faster and 2-13x lighter, measured in docs/benchmarks.md)");
+               "Surfaces and volumes: store L and A and solve on them (the default there is matrix-free: faster on\n"
+               "smooth surfaces, about as fast on atlases, always lighter; docs/benchmarks.md)");
   app.add_flag("--per-contour", per_contour,
                "The spectrum of each contour on its own (one table per contour; the shape descriptor of each object)");
   app::add_output_options(app, out_dir, quiet);

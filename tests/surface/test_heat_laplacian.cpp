@@ -175,10 +175,10 @@ TEST(Surface, HeatFlowOnSurfacesSolvesByConjugateGradients) {
 }
 
 // Issue 13's must-show: the sphere at h = 0.02 with the defaults (II normals, c_t = 0.1, the
-// measured length scale), N = 46,950, through LOBPCG on products (about 20 s and 4.7 GB; the
-// factorization would not fit). Measured: l = 1..3 within 0.57% of l(l+1) after the bias
-// correction, clusters split by 0.19% (l = 2) and 0.10% (l = 3). Asserted: 1% and 1%, the
-// issue's figures. Left out of the sanitizer run (scripts/sanitize.sh) for its size.
+// measured length scale, the intrinsic kernel), N = 46,950, through LOBPCG on products (about
+// 20 s and 4.7 GB; the factorization would not fit). Measured: l = 1..3 within 0.23% of l(l+1)
+// after the bias correction, clusters split by 0.03% (l = 2) and 0.07% (l = 3); with the chord
+// kernel 0.57%, 0.19% and 0.10%. Asserted: 1% and 1%, the issue's figures. Left out of the sanitizer run (scripts/sanitize.sh) for its size.
 TEST(Surface, SphereSpectrumAtFineStep) {
   Sphere sphere;
   sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
