@@ -141,35 +141,34 @@ struct Grid {
   // ones (intrinsic_distance2); the neighbours are still those within `cut` along the chord.
   void gather_within(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order = false,
                      const Eigen::Vector3d* nq = nullptr) const {
-    const double cut2 = cut * cut;
-    found.size = 0;
-    if (nq) {
-      for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
-        found.reserve(found.size + static_cast<std::size_t>(last - first));
-        int* col = found.col.data();
-        double* d2 = found.d2.data();
-        std::size_t k = found.size;
-        for (Eigen::Index it = first; it < last; ++it) {
-          const auto u = static_cast<std::size_t>(it);
-          const double dx = xs[u] - q.x(), dy = ys[u] - q.y(), dz = zs[u] - q.z();
-          col[k] = static_cast<int>(in_grid_order ? it : items[u]);
-          d2[k] = intrinsic_distance2(dx, dy, dz, nxs[u] + nq->x(), nys[u] + nq->y(), nzs[u] + nq->z(), nxs[u] - nq->x(),
-                                      nys[u] - nq->y(), nzs[u] - nq->z());
-          k += dx * dx + dy * dy + dz * dz <= cut2;
-        }
-        found.size = k;
-      });
+    if (!nq) {
+      gather(q, cut, found, in_grid_order, [](std::size_t, double, double, double, double chord2) { return chord2; });
       return;
     }
+    gather(q, cut, found, in_grid_order, [&](std::size_t u, double dx, double dy, double dz, double) {
+      return intrinsic_distance2(dx, dy, dz, nxs[u] + nq->x(), nys[u] + nq->y(), nzs[u] + nq->z(), nxs[u] - nq->x(), nys[u] - nq->y(),
+                                 nzs[u] - nq->z());
+    });
+  }
+
+private:
+  // The candidates within `cut` of q along the chord, each stored with distance(item, dx, dy, dz,
+  // chord^2). Branch-free: every candidate is written and the end moves on when it is within.
+  template <class Distance>
+  void gather(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order, Distance&& distance) const {
+    const double cut2 = cut * cut;
+    found.size = 0;
     for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
       found.reserve(found.size + static_cast<std::size_t>(last - first));
       int* col = found.col.data();
       double* d2 = found.d2.data();
       std::size_t k = found.size;
       for (Eigen::Index it = first; it < last; ++it) {
-        const double d = distance2(q, it);
-        col[k] = static_cast<int>(in_grid_order ? it : items[static_cast<std::size_t>(it)]), d2[k] = d;
-        k += d <= cut2;
+        const auto u = static_cast<std::size_t>(it);
+        const double dx = xs[u] - q.x(), dy = ys[u] - q.y(), dz = zs[u] - q.z();
+        const double chord2 = dx * dx + dy * dy + dz * dz;
+        col[k] = static_cast<int>(in_grid_order ? it : items[u]), d2[k] = distance(u, dx, dy, dz, chord2);
+        k += chord2 <= cut2;
       }
       found.size = k;
     });
