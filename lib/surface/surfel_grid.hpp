@@ -84,7 +84,6 @@ struct Grid {
         nxs[it] = (*normals)(items[it], 0), nys[it] = (*normals)(items[it], 1), nzs[it] = (*normals)(items[it], 2);
     }
   }
-  bool has_normals() const { return !nxs.empty() || items.empty(); }
   Eigen::Index index(double v, double o, Eigen::Index count) const {
     return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
   }
