@@ -17,13 +17,12 @@
 namespace digilap::surface {
 
 // One surface: its grid over its own centres (rows local to the surface) and its kernel. With
-// the intrinsic kernel, the grid holds the normals, `normals` them by local row (the queries'),
-// and the weights' measures are mu (1 + g), each row scaled by its 1 + g (intrinsic_kernel.hpp).
+// the intrinsic kernel, the grid holds the normals (in its item order, the queries' too), and
+// the weights' measures are mu (1 + g), each row scaled by its 1 + g (intrinsic_kernel.hpp).
 struct MatrixFreeSurfaceOperator::Part {
   Eigen::Index first = 0, rows = 0;
   detail::Grid grid;
   detail::Kernel kernel;
-  Eigen::MatrixX3d normals;        // empty for the chord
   std::vector<int> slot;           // row -> its position in the grid's item order
   Eigen::VectorXd mass_in_grid;    // the weights' measures in that order
   Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
@@ -31,11 +30,9 @@ struct MatrixFreeSurfaceOperator::Part {
        const Eigen::MatrixX3d* normals_)
       : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_), kernel(k) {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
-    if (normals_) {
-      normals = *normals_;
-      factor = detail::curvature_factors(detail::estimated_gaussian_curvature(grid, positions, normals, mass.segment(first, rows), kernel),
+    if (normals_)
+      factor = detail::curvature_factors(detail::estimated_gaussian_curvature(grid, positions, *normals_, mass.segment(first, rows), kernel),
                                          kernel.t);
-    }
     slot.resize(static_cast<std::size_t>(rows));
     mass_in_grid.resize(rows);
     row_scale.resize(rows);
@@ -46,10 +43,12 @@ struct MatrixFreeSurfaceOperator::Part {
       row_scale[static_cast<Eigen::Index>(it)] = factor[r];
     }
   }
+  bool intrinsic() const { return !grid.nxs.empty(); }
   // The query normal of local row i (null for the chord).
   const Eigen::Vector3d* normal_of(Eigen::Index i, Eigen::Vector3d& buffer) const {
-    if (normals.rows() == 0) return nullptr;
-    buffer = normals.row(i).transpose();
+    if (!intrinsic()) return nullptr;
+    const auto at = static_cast<std::size_t>(slot[static_cast<std::size_t>(i)]);
+    buffer = Eigen::Vector3d(grid.nxs[at], grid.nys[at], grid.nzs[at]);
     return &buffer;
   }
 };
@@ -136,9 +135,9 @@ double MatrixFreeSurfaceOperator::part_cut(std::size_t p) const {
 
 double MatrixFreeSurfaceOperator::bytes() const {
   // Positions (24), masses, diagonals (24), and per grid item its index and coordinates (32);
-  // with the intrinsic kernel, the normals twice (48) and the row scales (8).
-  const bool intrinsic = !part_.empty() && part_.front()->normals.rows() > 0;
-  return (intrinsic ? 136.0 : 80.0) * static_cast<double>(rows());
+  // with the intrinsic kernel, the grid's normals (24) and the row scales (8).
+  const bool intrinsic = !part_.empty() && part_.front()->intrinsic();
+  return (intrinsic ? 112.0 : 80.0) * static_cast<double>(rows());
 }
 
 void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const {
