@@ -93,10 +93,8 @@ SurfaceOperator detail::heat_laplacian_rows(const SurfelSet& surfels, const Surf
     }
     const Eigen::MatrixX3d normals = measures.normals.middleRows(first, rows);
     grids.emplace_back(op.positions.middleRows(first, rows), kernel[p].cut, &normals);
-    const Eigen::VectorXd factor = detail::curvature_factors(
-        detail::estimated_gaussian_curvature(grids.back(), op.positions.middleRows(first, rows), normals, op.mass.segment(first, rows),
-                                             kernel[p]),
-        kernel[p].t);
+    const Eigen::VectorXd factor =
+        detail::curvature_factors(grids.back(), op.positions.middleRows(first, rows), normals, op.mass.segment(first, rows), kernel[p]);
     row_scale.segment(first, rows) = factor;
     weight_mu.segment(first, rows) = op.mass.segment(first, rows).cwiseProduct(factor);
   }

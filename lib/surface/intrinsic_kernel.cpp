@@ -54,8 +54,10 @@ Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::Matr
   return curvature;
 }
 
-Eigen::VectorXd curvature_factors(const Eigen::VectorXd& gaussian_curvature, double t) {
-  return gaussian_curvature.unaryExpr([t](double k) {
+Eigen::VectorXd curvature_factors(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
+                                  const Eigen::VectorXd& mu, const Kernel& kernel) {
+  const double t = kernel.t;
+  return estimated_gaussian_curvature(grid, positions, normals, mu, kernel).unaryExpr([t](double k) {
     return 1 + std::clamp((2.0 / 3.0) * t * k, -kMaxCurvatureCorrection, kMaxCurvatureCorrection);
   });
 }

@@ -45,7 +45,9 @@ constexpr double kMaxCurvatureCorrection = 0.25;
 Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
                                              const Eigen::VectorXd& mu, const Kernel& kernel);
 
-/// 1 + g_i, g_i = (2/3) t K_i clamped to [-kMaxCurvatureCorrection, kMaxCurvatureCorrection].
-Eigen::VectorXd curvature_factors(const Eigen::VectorXd& gaussian_curvature, double t);
+/// 1 + g_i, g_i = (2/3) t K_i clamped to [-kMaxCurvatureCorrection, kMaxCurvatureCorrection], K
+/// from estimated_gaussian_curvature with the same arguments, t the kernel's.
+Eigen::VectorXd curvature_factors(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
+                                  const Eigen::VectorXd& mu, const Kernel& kernel);
 
 }  // namespace digilap::surface::detail

@@ -31,8 +31,7 @@ struct MatrixFreeSurfaceOperator::Part {
       : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_), kernel(k) {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
     if (normals_)
-      factor = detail::curvature_factors(detail::estimated_gaussian_curvature(grid, positions, *normals_, mass.segment(first, rows), kernel),
-                                         kernel.t);
+      factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
     slot.resize(static_cast<std::size_t>(rows));
     mass_in_grid.resize(rows);
     row_scale.resize(rows);

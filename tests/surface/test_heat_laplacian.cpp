@@ -345,7 +345,7 @@ TEST(SurfaceIntrinsicKernel, StructureAndThreadIndependence) {
     ASSERT_EQ(one.row_offset.size(), 2u) << name;
     const surface::detail::Kernel kernel(t, 6.0);
     const surface::detail::Grid grid(x, kernel.cut, &nrm);
-    const Eigen::VectorXd c = surface::detail::curvature_factors(surface::detail::estimated_gaussian_curvature(grid, x, nrm, one.mass, kernel), t);
+    const Eigen::VectorXd c = surface::detail::curvature_factors(grid, x, nrm, one.mass, kernel);
     int checked = 0;
     for (Eigen::Index i = 0; i < n; ++i)
       for (Eigen::Index j = 0; j < n; ++j) {
