@@ -20,25 +20,25 @@
 namespace digilap::surface::detail {
 
 
-// The squared distance of SurfaceKernel::Intrinsic from the chord d = x_j - x_i and the normals'
-// sum s = n_i + n_j and difference e = n_j - n_i: the chord in the mean tangent plane plus the
-// second-order geodesic term,
+// The squared distances of SurfaceKernel::Intrinsic from q (normal nq) to `count` consecutive
+// grid items (coordinates x, y, z, normals nx, ny, nz), with their chords: for each, with the
+// chord d = x_j - x_i, the normals' sum s = n_i + n_j and difference e = n_j - n_i, the chord in
+// the mean tangent plane plus the second-order geodesic term,
 //   |d|^2 - <d, s>^2 / |s|^2 + <d, e>^2 / 12,
 // or the chord when the normals are more than 90 degrees apart (|s|^2 <= 2: two sides of a thin
 // wall, where no tangent plane is shared). Swapping i and j negates d and e exactly and leaves s
 // unchanged (addition commutes), so the result is the same bit for bit: A stays symmetric.
-inline double intrinsic_distance2(double dx, double dy, double dz, double sx, double sy, double sz, double ex, double ey, double ez) {
-  const double chord2 = dx * dx + dy * dy + dz * dz;
-  const double s2 = sx * sx + sy * sy + sz * sz;
-  const double height = dx * sx + dy * sy + dz * sz, bend = dx * ex + dy * ey + dz * ez;
-  return s2 > 2 ? chord2 - height * height / s2 + bend * bend / 12 : chord2;
-}
+// Built for AVX-512, AVX2 and the baseline, the CPU's best picked at load time, and without
+// contracting products into FMAs, so that every build gives the same bits (surfel_grid.cpp).
+void intrinsic_distances(const double* x, const double* y, const double* z, const double* nx, const double* ny, const double* nz,
+                         std::size_t count, const double* q, const double* nq, double* chord2, double* d2);
 
 // A row's columns and squared distances, before sorting (one per thread, reused).
 struct RowBuffer {
   std::vector<int> col;
   std::vector<double> d2;
   std::size_t size = 0;
+  std::vector<double> run_chord2, run_d2;  // one run of candidates (the intrinsic gather)
   void reserve(std::size_t n) {
     if (col.size() < n) col.resize(2 * n), d2.resize(2 * n);
   }
@@ -140,34 +140,37 @@ struct Grid {
   // ones (intrinsic_distance2); the neighbours are still those within `cut` along the chord.
   void gather_within(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order = false,
                      const Eigen::Vector3d* nq = nullptr) const {
-    if (!nq) {
-      gather(q, cut, found, in_grid_order, [](std::size_t, double, double, double, double chord2) { return chord2; });
-      return;
-    }
-    gather(q, cut, found, in_grid_order, [&](std::size_t u, double dx, double dy, double dz, double) {
-      return intrinsic_distance2(dx, dy, dz, nxs[u] + nq->x(), nys[u] + nq->y(), nzs[u] + nq->z(), nxs[u] - nq->x(), nys[u] - nq->y(),
-                                 nzs[u] - nq->z());
-    });
-  }
-
-private:
-  // The candidates within `cut` of q along the chord, each stored with distance(item, dx, dy, dz,
-  // chord^2). Branch-free: every candidate is written and the end moves on when it is within.
-  template <class Distance>
-  void gather(const Eigen::Vector3d& q, double cut, RowBuffer& found, bool in_grid_order, Distance&& distance) const {
     const double cut2 = cut * cut;
     found.size = 0;
+    if (!nq) {
+      for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
+        found.reserve(found.size + static_cast<std::size_t>(last - first));
+        int* col = found.col.data();
+        double* d2 = found.d2.data();
+        std::size_t k = found.size;
+        for (Eigen::Index it = first; it < last; ++it) {
+          const double chord2 = distance2(q, it);
+          col[k] = static_cast<int>(in_grid_order ? it : items[static_cast<std::size_t>(it)]), d2[k] = chord2;
+          k += chord2 <= cut2;
+        }
+        found.size = k;
+      });
+      return;
+    }
+    // Intrinsic: the run's distances first, in a loop that vectorizes, then the compaction.
     for_candidates(q, cut, [&](Eigen::Index first, Eigen::Index last) {
-      found.reserve(found.size + static_cast<std::size_t>(last - first));
+      const auto count = static_cast<std::size_t>(last - first), u = static_cast<std::size_t>(first);
+      found.reserve(found.size + count);
+      if (found.run_d2.size() < count) found.run_d2.resize(2 * count), found.run_chord2.resize(2 * count);
+      intrinsic_distances(&xs[u], &ys[u], &zs[u], &nxs[u], &nys[u], &nzs[u], count, q.data(), nq->data(), found.run_chord2.data(),
+                          found.run_d2.data());
       int* col = found.col.data();
       double* d2 = found.d2.data();
       std::size_t k = found.size;
-      for (Eigen::Index it = first; it < last; ++it) {
-        const auto u = static_cast<std::size_t>(it);
-        const double dx = xs[u] - q.x(), dy = ys[u] - q.y(), dz = zs[u] - q.z();
-        const double chord2 = dx * dx + dy * dy + dz * dz;
-        col[k] = static_cast<int>(in_grid_order ? it : items[u]), d2[k] = distance(u, dx, dy, dz, chord2);
-        k += chord2 <= cut2;
+      for (std::size_t r = 0; r < count; ++r) {
+        const std::size_t it = u + r;
+        col[k] = static_cast<int>(in_grid_order ? it : static_cast<std::size_t>(items[it])), d2[k] = found.run_d2[r];
+        k += found.run_chord2[r] <= cut2;
       }
       found.size = k;
     });
