@@ -2,6 +2,7 @@
 // spectra, heat kernel signatures, heat flow, function smoothing, matrix files.
 #include "common.hpp"
 
+#include "digilap/core/bias_correction.hpp"
 #include "digilap/core/error.hpp"
 #include "digilap/core/heat_flow.hpp"
 #include "digilap/core/io.hpp"
@@ -77,6 +78,14 @@ void bind_core(py::module_& m) {
       .def("advance", &HeatFlow::advance, py::arg("u0"), py::arg("steps"), Release());
   m.def("smooth_function", py::overload_cast<const HeatOperator&, const Eigen::VectorXd&, double, int>(&smooth_function), py::arg("op"), py::arg("f"), py::arg("tau"), py::arg("steps") = 1, Release(),
         "f after heat diffusion for a time tau (implicit Euler steps).");
+  m.def("bias_corrected_laplacian", [](const HeatOperator& op, const Eigen::MatrixXd& g) {
+        if (g.rows() != op.rows())
+          throw py::value_error("g: expected " + std::to_string(op.rows()) + " rows, got " + std::to_string(g.rows()));
+        py::gil_scoped_release release;
+        return bias_corrected_laplacian(op, g);
+      }, py::arg("op"), py::arg("g"),
+      "L_c g = L g - (t/2) L (I + t L) L g for a vector or an N x b block: a pointwise Laplace-Beltrami estimate with the "
+      "heat kernel's O(t) bias (t/2) Delta^2 g removed, each part with its own t (three products of L).");
   m.def("save_operator", [](const HeatOperator& op, const FilePath& directory, const std::string& prefix, const std::string& format) {
         const FileFormat f = file_format_of(format);
         py::gil_scoped_release release;

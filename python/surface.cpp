@@ -209,6 +209,14 @@ void bind_surface(py::module_& m, py::module_& s) {
            py::arg("x"), "L x for a vector or an N x b block (one neighbour search for the whole block).")
       .def("stiffness_matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) { return surface_product(op, x, true); },
            py::arg("x"), "A x = M L x (symmetric) for a vector or an N x b block.")
+      .def("bias_corrected_matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) {
+             if (x.rows() != op.rows())
+               throw py::value_error("x: expected " + std::to_string(op.rows()) + " rows, got " + std::to_string(x.rows()));
+             py::gil_scoped_release release;
+             return surface::bias_corrected_laplacian(op, x);
+           }, py::arg("x"),
+           "L_c x = L x - (t/2) L (I + t L) L x: a pointwise Laplace-Beltrami estimate with the kernel's O(t) bias removed "
+           "(three products; digilap.bias_corrected_laplacian).")
       .def("smallest_eigenpairs", [](const surface::MatrixFreeSurfaceOperator& op, int count) {
         return surface::smallest_eigenpairs(op, {count});
       }, py::arg("count") = 10, Release(), "The count smallest eigenpairs (LOBPCG preconditioned by the surfel graph Laplacian).");

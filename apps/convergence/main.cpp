@@ -25,7 +25,8 @@ namespace {
 // log-log figure.
 int surface_convergence(const std::string& spec, const std::string& function, std::vector<double> steps,
                         const HeatLaplacianOptions& base, double k_R, double length_scale, const std::vector<double>& centre,
-                        double rotate_degrees, bool matrix_free, const std::string& out_dir, app::Progress& progress) {
+                        double rotate_degrees, bool matrix_free, bool bias_correction, const std::string& out_dir,
+                        app::Progress& progress) {
   auto shape = surface::make_surface(spec);
   surface::sample_test_function(*shape, function, Eigen::MatrixX3d(0, 3));  // an unknown name refused before any work
   const Eigen::Vector3d c = centre.empty() ? Eigen::Vector3d(0.0123, -0.0371, 0.0217) : Eigen::Vector3d(centre[0], centre[1], 0);
@@ -33,9 +34,11 @@ int surface_convergence(const std::string& spec, const std::string& function, st
   const double kR = app::ii_k_R(k_R, 2);
   struct Row {
     double h, t, l, error;
-    std::string variant;
+    std::string variant, estimate;  // normals; "L" (L g) or "bias-corrected" (L_c g)
     Eigen::Index n, nnz;
   };
+  std::vector<std::string> estimates{"L"};
+  if (bias_correction) estimates.push_back("bias-corrected");
   std::vector<Row> rows;
   for (std::size_t s = 0; s < steps.size(); ++s) {
     const double h = steps[s];
@@ -48,9 +51,10 @@ int surface_convergence(const std::string& spec, const std::string& function, st
       const surface::SurfaceTestSamples exact = surface::sample_test_function(*shape, function, surfels.centres());
       const Eigen::VectorXd& g = exact.values;
       const Eigen::Index n_rows = g.size();
-      // One product L g per h and normals: assembled, or (--matrix-free) on the fly in O(N)
-      // memory, which is what reaches h = 0.005 (the assembled L would take 10^10 bytes there).
-      Eigen::VectorXd Lg;
+      // One product L g per h and normals (three more with --bias-correction: L_c g, of which
+      // L g is the first): assembled, or (--matrix-free) on the fly in O(N) memory, which is what
+      // reaches h = 0.005 (the assembled L would take 10^10 bytes there).
+      Eigen::VectorXd Lg, corrected;
       double t = 0;
       Eigen::Index nnz = -1;
       if (matrix_free) {
@@ -58,48 +62,54 @@ int surface_convergence(const std::string& spec, const std::string& function, st
         Eigen::MatrixXd y;
         op.apply_laplacian(g, y);
         Lg = y.col(0), t = op.t();
+        if (bias_correction) corrected = surface::bias_corrected_laplacian(op, g).col(0);
       } else {
         const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, base);
         Lg = op.L * g, t = op.t, nnz = op.L.nonZeros();
+        if (bias_correction) corrected = bias_corrected_laplacian(op, g).col(0);
       }
-      rows.push_back({h, t, ii.length_scale, surface::relative_max_error(Lg, exact), variant, n_rows, nnz});
+      rows.push_back({h, t, ii.length_scale, surface::relative_max_error(Lg, exact), variant, "L", n_rows, nnz});
+      if (bias_correction)
+        rows.push_back({h, t, ii.length_scale, surface::relative_max_error(corrected, exact), variant, "bias-corrected", n_rows, nnz});
     }
     progress.bar("sweep", static_cast<double>(s + 1) / static_cast<double>(steps.size()));
   }
   progress.end_bar();
   std::printf("# %s, g = %s, R = %g h^(1/3) l^(2/3), t = %g h^(2/3) l^(4/3), k = %g, l %s\n", shape->name().c_str(),
               function.c_str(), kR, base.c_t, base.k, length_scale > 0 ? "given" : "measured at each h");
-  std::printf("| h | normals | N | nnz | l | t | rel max err |\n|---|---|---|---|---|---|---|\n");
+  std::printf("| h | normals | estimate | N | nnz | l | t | rel max err |\n|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
-    std::printf("| %g | %s | %ld | %s | %.3g | %.3g | %.3f%% |\n", r.h, r.variant.c_str(), static_cast<long>(r.n),
-                r.nnz < 0 ? "(matrix-free)" : std::to_string(r.nnz).c_str(), r.l, r.t, 100 * r.error);
+    std::printf("| %g | %s | %s | %ld | %s | %.3g | %.3g | %.3f%% |\n", r.h, r.variant.c_str(), r.estimate.c_str(),
+                static_cast<long>(r.n), r.nnz < 0 ? "(matrix-free)" : std::to_string(r.nnz).c_str(), r.l, r.t, 100 * r.error);
   std::filesystem::create_directories(out_dir);
   std::ofstream csv(out_dir + "/convergence.csv");
   if (!csv) throw Error("cannot write '" + out_dir + "/convergence.csv'");
-  csv << "surface,function,h,normals,N,nnz,length_scale,t,relative_max_error\n";
+  csv << "surface,function,h,normals,N,nnz,length_scale,t,relative_max_error,estimate\n";
   csv.precision(10);
   app::LogLogPlot plot;
   plot.title = "Laplace-Beltrami of " + function + " on the " + shape->name() + " (max error / max |Δg|)";
   plot.x_label = "grid step h";
   plot.y_label = "relative max error";
-  std::printf("\n| normals | rel max err at h = %g | slope (all h) |\n|---|---|---|\n", steps.back());
-  for (const std::string variant : {"ii", "exact"}) {
-    app::PlotSeries series;
-    for (const Row& r : rows)
-      if (r.variant == variant) {
-        series.x.push_back(r.h), series.y.push_back(r.error);
-        csv << shape->name() << ',' << function << ',' << r.h << ',' << variant << ',' << r.n << ',' << r.nnz << ',' << r.l << ','
-            << r.t << ',' << r.error << '\n';
-      }
-    const double slope = app::loglog_slope(series.x, series.y, 0, series.x.size());
-    char label[96];
-    if (series.x.size() < 2) std::snprintf(label, sizeof label, "heat, %s normals (one step: no slope)", variant.c_str());
-    else std::snprintf(label, sizeof label, "heat, %s normals (%.2f)", variant.c_str(), slope);
-    series.label = label;
-    std::printf("| %s | %.3f%% | %s |\n", variant.c_str(), 100 * series.y.back(),
-                series.x.size() < 2 ? "one step: no slope" : std::to_string(slope).substr(0, 4).c_str());
-    plot.series.push_back(series);
-  }
+  std::printf("\n| normals | estimate | rel max err at h = %g | slope (all h) |\n|---|---|---|---|\n", steps.back());
+  for (const std::string& estimate : estimates)
+    for (const std::string variant : {"ii", "exact"}) {
+      app::PlotSeries series;
+      for (const Row& r : rows)
+        if (r.variant == variant && r.estimate == estimate) {
+          series.x.push_back(r.h), series.y.push_back(r.error);
+          csv << shape->name() << ',' << function << ',' << r.h << ',' << variant << ',' << r.n << ',' << r.nnz << ',' << r.l
+              << ',' << r.t << ',' << r.error << ',' << estimate << '\n';
+        }
+      const double slope = app::loglog_slope(series.x, series.y, 0, series.x.size());
+      const std::string name = estimate == "L" ? "heat" : "heat, bias-corrected";
+      char label[128];
+      if (series.x.size() < 2) std::snprintf(label, sizeof label, "%s, %s normals (one step: no slope)", name.c_str(), variant.c_str());
+      else std::snprintf(label, sizeof label, "%s, %s normals (%.2f)", name.c_str(), variant.c_str(), slope);
+      series.label = label;
+      std::printf("| %s | %s | %.3f%% | %s |\n", variant.c_str(), estimate.c_str(), 100 * series.y.back(),
+                  series.x.size() < 2 ? "one step: no slope" : std::to_string(slope).substr(0, 4).c_str());
+      plot.series.push_back(series);
+    }
   const double anchor = plot.series.front().y.back(), hmin = steps.back(), hmax = steps.front();
   app::PlotSeries one;
   one.label = "slope 1";
@@ -160,6 +170,10 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"closest", "radial"}))
       ->capture_default_str();
   app::add_surface_kernel_option(app, base.surface_kernel);
+  bool bias_correction = false;
+  app.add_flag("--bias-correction", bias_correction,
+               "Surfaces: also measure L_c g = L g - (t/2) L (I + t L) L g, the kernel's O(t) bias removed "
+               "(three products more per h; core/bias_correction.hpp)");
   bool matrix_free = false;
   app.add_flag("--matrix-free", matrix_free,
                "Surfaces: each L g computed on the fly, never stored (memory O(N): reaches h = 0.005 on the unit sphere)");
@@ -181,10 +195,11 @@ int main(int argc, char** argv) {
       for (double h : steps)
         if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
       app::Progress progress(quiet);
-      return surface_convergence(shape_name, function, steps, base, k_R, length_scale, centre, rotate_degrees, matrix_free, out_dir,
-                                 progress);
+      return surface_convergence(shape_name, function, steps, base, k_R, length_scale, centre, rotate_degrees, matrix_free,
+                                 bias_correction, out_dir, progress);
     }
     if (app.count("--surface-kernel") > 0) throw Error("--surface-kernel is for surfaces (--shape sphere, ellipsoid or torus)");
+    if (bias_correction) throw Error("--bias-correction is for surfaces here (--shape sphere, ellipsoid or torus)");
     if (matrix_free) throw Error("--matrix-free is for surfaces here (contours: the convergence sweep is assembled; digilap-spectrum --matrix-free)");
     auto shape = make_shape(shape_name);
     if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");

@@ -218,6 +218,13 @@ void apply_whole(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x, 
 void MatrixFreeSurfaceOperator::apply_stiffness(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, true); }
 void MatrixFreeSurfaceOperator::apply_laplacian(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, false); }
 
+Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g) {
+  if (g.rows() != op.rows())
+    throw Error("bias_corrected_laplacian: " + std::to_string(g.rows()) + " rows for an operator of " + std::to_string(op.rows()));
+  return digilap::bias_corrected_laplacian([&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { op.apply_laplacian(x, y); },
+                                           heat_time_of_rows(op.row_offset(), op.part_t()), g);
+}
+
 namespace {
 // The preconditioner of one surface's LOBPCG, on its support: x -> M^(1/2) (K + sigma M)^(-1)
 // M^(1/2) x + t x in the symmetric form of the problem (C = M^(-1/2) (-A) M^(-1/2)). K is the
@@ -251,9 +258,18 @@ public:
     if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs (matrix-free surfaces): the preconditioner's factorization failed");
     root_mass_ = mass.cwiseSqrt();
   }
+  // The columns' solves are independent: a few columns per thread (Eigen's sparse triangular
+  // solves run on one), each column's bits the same however they are split.
   void apply(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-    y = root_mass_.asDiagonal() * solver_.solve(root_mass_.asDiagonal() * x);
-    y += t_ * x;
+    y.resize(x.rows(), x.cols());
+    constexpr Eigen::Index kColumns = 4;
+    const Eigen::Index chunks = (x.cols() + kColumns - 1) / kColumns;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (Eigen::Index c = 0; c < chunks; ++c) {
+      const Eigen::Index first = c * kColumns, count = std::min(kColumns, x.cols() - first);
+      const Eigen::MatrixXd scaled = root_mass_.asDiagonal() * x.middleCols(first, count);
+      y.middleCols(first, count) = root_mass_.asDiagonal() * solver_.solve(scaled) + t_ * x.middleCols(first, count);
+    }
   }
 
 private:

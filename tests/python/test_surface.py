@@ -212,3 +212,30 @@ def test_matrix_free_surface_operator_from_scipy():
         free.matvec(np.zeros(3))
     with pytest.raises(digilap.Error, match="dt must be > 0"):
         surface.MatrixFreeHeatFlow(free, 0.0)
+
+
+def test_bias_corrected_estimate_from_python():
+    """L_c g = L g - (t/2) L (I + t L) L g (issue 23): the matrix-free method equals the
+    assembled function (1e-12 of the products' scale), and on the unit sphere's x^2 (SPEC §7)
+    it lowers the max error (12.6% -> 8.4% at h = 0.1; asserted below 0.75 of the plain one)."""
+    sphere = surface.make_surface("sphere")
+    sphere.set_pose([0.0123, -0.0371, 0.0217], np.eye(3))
+    voxels = surface.digitize(sphere, 0.1)
+    surfels = surface.extract_surfels(voxels)
+    mu = surface.measures(surfels, surface.ii_normals(voxels, surfels))
+    op = surface.heat_laplacian(surfels, mu)
+    free = surface.MatrixFreeSurfaceOperator(surfels, mu)
+    p = np.array([sphere.closest_point(x) for x in np.asarray(surfels.centres)])
+    q = p - np.array([0.0123, -0.0371, 0.0217])
+    g = q[:, 0] ** 2
+    exact = 2 - 2 * q[:, 0] ** 2 - 4 * q[:, 0] ** 2  # Delta_S x^2 on the unit sphere, n = q
+    corrected = free.bias_corrected_matvec(g)[:, 0]
+    scale = 9 * abs(op.L).sum(axis=1).max() * abs(g).max()
+    assert abs(corrected - digilap.bias_corrected_laplacian(op, g)[:, 0]).max() < 1e-12 * scale
+
+    def error(v):
+        return abs(v - exact).max() / abs(exact).max()
+
+    assert error(corrected) < 0.75 * error(op.L @ g)
+    with pytest.raises(ValueError):
+        free.bias_corrected_matvec(g[:-1])

@@ -14,6 +14,7 @@
 // number of threads, bit for bit.
 #pragma once
 
+#include "digilap/core/bias_correction.hpp"
 #include "digilap/core/spectrum.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 
@@ -84,5 +85,9 @@ private:
 /// digilap::Error for a count out of range, a surface without area, or no convergence within
 /// options.max_iterations.
 Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const SpectrumOptions& options = {});
+
+/// The pointwise estimate L_c g = L g − (t/2) L (I + t L) L g with the kernel's O(t) bias
+/// removed (core/bias_correction.hpp), each surface with its own t: three products, memory O(N).
+Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g);
 
 }  // namespace digilap::surface
