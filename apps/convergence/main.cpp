@@ -51,23 +51,25 @@ int surface_convergence(const std::string& spec, const std::string& function, st
       const surface::SurfaceTestSamples exact = surface::sample_test_function(*shape, function, surfels.centres());
       const Eigen::VectorXd& g = exact.values;
       const Eigen::Index n_rows = g.size();
-      // One product L g per h and normals (three more with --bias-correction: L_c g, of which
-      // L g is the first): assembled, or (--matrix-free) on the fly in O(N) memory, which is what
+      // One product L g per h and normals (three with --bias-correction: L_c g, of which L g is
+      // the first): assembled, or (--matrix-free) on the fly in O(N) memory, which is what
       // reaches h = 0.005 (the assembled L would take 10^10 bytes there).
       Eigen::VectorXd Lg, corrected;
       double t = 0;
       Eigen::Index nnz = -1;
+      Eigen::MatrixXd y;
       if (matrix_free) {
         const surface::MatrixFreeSurfaceOperator op(surfels, mu, base);
-        Eigen::MatrixXd y;
-        op.apply_laplacian(g, y);
-        Lg = y.col(0), t = op.t();
-        if (bias_correction) corrected = surface::bias_corrected_laplacian(op, g).col(0);
+        if (bias_correction) corrected = surface::bias_corrected_laplacian(op, g, &y).col(0);
+        else op.apply_laplacian(g, y);
+        t = op.t();
       } else {
         const surface::SurfaceOperator op = surface::heat_laplacian(surfels, mu, base);
-        Lg = op.L * g, t = op.t, nnz = op.L.nonZeros();
-        if (bias_correction) corrected = bias_corrected_laplacian(op, g).col(0);
+        if (bias_correction) corrected = bias_corrected_laplacian(op, g, &y).col(0);
+        else y = op.L * g;
+        t = op.t, nnz = op.L.nonZeros();
       }
+      Lg = y.col(0);
       rows.push_back({h, t, ii.length_scale, surface::relative_max_error(Lg, exact), variant, "L", n_rows, nnz});
       if (bias_correction)
         rows.push_back({h, t, ii.length_scale, surface::relative_max_error(corrected, exact), variant, "bias-corrected", n_rows, nnz});

@@ -7,7 +7,8 @@
 
 namespace digilap {
 
-Eigen::MatrixXd bias_corrected_laplacian(const LaplacianProduct& apply_l, const Eigen::VectorXd& t_of_row, const Eigen::MatrixXd& g) {
+Eigen::MatrixXd bias_corrected_laplacian(const LaplacianProduct& apply_l, const Eigen::VectorXd& t_of_row, const Eigen::MatrixXd& g,
+                                         Eigen::MatrixXd* plain) {
   if (t_of_row.size() != g.rows())
     throw Error("bias_corrected_laplacian: " + std::to_string(t_of_row.size()) + " heat times for " + std::to_string(g.rows()) + " rows");
   for (Eigen::Index i = 0; i < t_of_row.size(); ++i)
@@ -24,7 +25,9 @@ Eigen::MatrixXd bias_corrected_laplacian(const LaplacianProduct& apply_l, const 
   };
   const Eigen::MatrixXd lg = product(g);
   const Eigen::MatrixXd smoothed = lg + t_of_row.asDiagonal() * product(lg);  // S L g, S = I + T L
-  return lg - 0.5 * (t_of_row.asDiagonal() * product(smoothed));
+  Eigen::MatrixXd corrected = lg - 0.5 * (t_of_row.asDiagonal() * product(smoothed));
+  if (plain) *plain = lg;
+  return corrected;
 }
 
 Eigen::VectorXd heat_time_of_rows(const std::vector<Eigen::Index>& row_offset, const std::vector<double>& part_t) {
@@ -36,13 +39,13 @@ Eigen::VectorXd heat_time_of_rows(const std::vector<Eigen::Index>& row_offset, c
   return t;
 }
 
-Eigen::MatrixXd bias_corrected_laplacian(const HeatOperator& op, const Eigen::MatrixXd& g) {
+Eigen::MatrixXd bias_corrected_laplacian(const HeatOperator& op, const Eigen::MatrixXd& g, Eigen::MatrixXd* plain) {
   if (g.rows() != op.rows())
     throw Error("bias_corrected_laplacian: " + std::to_string(g.rows()) + " rows for an operator of " + std::to_string(op.rows()));
   std::vector<double> part_t(op.parts());
   for (std::size_t p = 0; p < op.parts(); ++p) part_t[p] = op.time_of_part(p);
   const Eigen::VectorXd t = op.parts() > 0 ? heat_time_of_rows(op.row_offset, part_t) : Eigen::VectorXd::Constant(op.rows(), op.t);
-  return bias_corrected_laplacian([&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { y = op.L * x; }, t, g);
+  return bias_corrected_laplacian([&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { y = op.L * x; }, t, g, plain);
 }
 
 }  // namespace digilap

@@ -83,16 +83,28 @@ __attribute__((always_inline)) inline void accumulate_columns(const double* a, c
   std::memcpy(out, sum, sizeof(sum));
 }
 
-// out[0, b) = sum_k a_k x_{col_k}[0, b), x stored row by row, b values a row, b a multiple of 8
-// (the blocks are padded with zeros): the products' hot loop. 32 columns a pass over the
-// neighbours, then 24, 16 or 8: a block of up to 32 vectors in one pass (the neighbours' rows
-// are scattered in memory, so each pass costs about as much as the loads it waits for; padding
-// 30 columns to 32 was faster than a last pass for 2). Each sum in the order of k, built for
+// out[0, b) = sum_k a_k x_{col_k}[0, b), x stored row by row, b values a row: the products' hot
+// loop. A block of 8 columns or more comes padded with zeros to a multiple of 8 and is summed 32
+// columns a pass over the neighbours, then 24, 16 or 8: up to 32 vectors in one pass (the
+// neighbours' rows are scattered in memory, so each pass costs about as much as the loads it
+// waits for; padding 30 columns to 32 was faster than a last pass for 2). Fewer than 8 columns
+// (a heat step, one product of the convergence sweep) are not padded, so that a neighbour's
+// values share its cache line with the next ones. Each sum in the order of k, built for
 // AVX-512 and AVX2 too and chosen at run time (the same CPU always runs the same build, so
 // results do not depend on the threads).
-constexpr Eigen::Index kLanesPadding = 8;
+constexpr Eigen::Index kLanes = 8;
+Eigen::Index padded_columns(Eigen::Index b) { return b < kLanes ? b : (b + kLanes - 1) / kLanes * kLanes; }
+
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void accumulate_row(
     const double* a, const int* col, Eigen::Index count, const double* x, Eigen::Index b, double* out) {
+  if (b < kLanes) {
+    for (Eigen::Index c = 0; c < b; ++c) {
+      double sum = 0;
+      for (Eigen::Index k = 0; k < count; ++k) sum += a[k] * x[static_cast<std::ptrdiff_t>(col[k]) * b + c];
+      out[c] = sum;
+    }
+    return;
+  }
   Eigen::Index c = 0;
   for (; c + 32 <= b; c += 32) accumulate_columns<Lanes8, 4>(a, col, count, x + c, b, out + c);
   if (c + 24 == b) accumulate_columns<Lanes8, 3>(a, col, count, x + c, b, out + c);
@@ -176,9 +188,10 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
     throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
                 std::to_string(part.rows));
   const Eigen::Index b = x.cols();
-  // Each row's b values contiguous (the inner loop runs over them) and padded with zeros to a
-  // multiple of 8, rows in the grid's order (a row's neighbours are then a few runs of memory).
-  const Eigen::Index padded = (b + kLanesPadding - 1) / kLanesPadding * kLanesPadding;
+  // Each row's b values contiguous (the inner loop runs over them), from 8 on padded with zeros
+  // to a multiple of 8, rows in the grid's order (a row's neighbours are then a few runs of
+  // memory).
+  const Eigen::Index padded = padded_columns(b);
   Eigen::MatrixXd xg = Eigen::MatrixXd::Zero(padded, part.rows);
   for (Eigen::Index it = 0; it < part.rows; ++it)
     xg.col(it).head(b) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
@@ -218,11 +231,11 @@ void apply_whole(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x, 
 void MatrixFreeSurfaceOperator::apply_stiffness(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, true); }
 void MatrixFreeSurfaceOperator::apply_laplacian(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const { apply_whole(*this, x, y, false); }
 
-Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g) {
+Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g, Eigen::MatrixXd* plain) {
   if (g.rows() != op.rows())
     throw Error("bias_corrected_laplacian: " + std::to_string(g.rows()) + " rows for an operator of " + std::to_string(op.rows()));
   return digilap::bias_corrected_laplacian([&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { op.apply_laplacian(x, y); },
-                                           heat_time_of_rows(op.row_offset(), op.part_t()), g);
+                                           heat_time_of_rows(op.row_offset(), op.part_t()), g, plain);
 }
 
 namespace {

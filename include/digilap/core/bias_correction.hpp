@@ -30,12 +30,14 @@ namespace digilap {
 using LaplacianProduct = std::function<void(const Eigen::MatrixXd& x, Eigen::MatrixXd& y)>;
 
 /// L_c g = L g − (T/2) L (I + T L) L g for the columns of g, T = diag(t_of_row): each row's heat
-/// time, its part's t (the parts do not interact, so this is L_c on each part). Throws
-/// digilap::Error for sizes that do not match or a t that is negative or not finite.
-Eigen::MatrixXd bias_corrected_laplacian(const LaplacianProduct& apply_l, const Eigen::VectorXd& t_of_row, const Eigen::MatrixXd& g);
+/// time, its part's t (the parts do not interact, so this is L_c on each part). With `plain`,
+/// also L g, the first of the three products. Throws digilap::Error for sizes that do not match
+/// or a t that is negative or not finite.
+Eigen::MatrixXd bias_corrected_laplacian(const LaplacianProduct& apply_l, const Eigen::VectorXd& t_of_row, const Eigen::MatrixXd& g,
+                                         Eigen::MatrixXd* plain = nullptr);
 
 /// L_c g on an assembled operator, each part with its own t (HeatOperator::time_of_part).
-Eigen::MatrixXd bias_corrected_laplacian(const HeatOperator& op, const Eigen::MatrixXd& g);
+Eigen::MatrixXd bias_corrected_laplacian(const HeatOperator& op, const Eigen::MatrixXd& g, Eigen::MatrixXd* plain = nullptr);
 
 /// Each row's heat time: part p's t on rows [row_offset[p], row_offset[p + 1]).
 Eigen::VectorXd heat_time_of_rows(const std::vector<Eigen::Index>& row_offset, const std::vector<double>& part_t);

@@ -88,6 +88,8 @@ Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const Spectrum
 
 /// The pointwise estimate L_c g = L g − (t/2) L (I + t L) L g with the kernel's O(t) bias
 /// removed (core/bias_correction.hpp), each surface with its own t: three products, memory O(N).
-Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g);
+/// With `plain`, also L g (the first product).
+Eigen::MatrixXd bias_corrected_laplacian(const MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& g,
+                                         Eigen::MatrixXd* plain = nullptr);
 
 }  // namespace digilap::surface
