@@ -108,8 +108,10 @@ int surface_convergence(const std::string& spec, const std::string& function, st
       if (series.x.size() < 2) std::snprintf(label, sizeof label, "%s, %s normals (one step: no slope)", name.c_str(), variant.c_str());
       else std::snprintf(label, sizeof label, "%s, %s normals (%.2f)", name.c_str(), variant.c_str(), slope);
       series.label = label;
-      std::printf("| %s | %s | %.3f%% | %s |\n", variant.c_str(), estimate.c_str(), 100 * series.y.back(),
-                  series.x.size() < 2 ? "one step: no slope" : std::to_string(slope).substr(0, 4).c_str());
+      char slope_text[32];
+      if (series.x.size() < 2) std::snprintf(slope_text, sizeof slope_text, "one step: no slope");
+      else std::snprintf(slope_text, sizeof slope_text, "%.2f", slope);  // rounded, as in the figure's legend
+      std::printf("| %s | %s | %.3f%% | %s |\n", variant.c_str(), estimate.c_str(), 100 * series.y.back(), slope_text);
       plot.series.push_back(series);
     }
   const double anchor = plot.series.front().y.back(), hmin = steps.back(), hmax = steps.front();
