@@ -246,7 +246,9 @@ const std::vector<Case> kCases = {
     {"convergence_volume", "convergence", "--volume {data}/ball.nii.gz", "", false, "images and volumes have none"},
     {"surface_convergence_function", "convergence", "--shape sphere --function cos1", "", false, "test functions are x2 and xy"},
     // The surface sweep without storing L (one product per h; the same errors, test_matrix_free).
-    {"surface_convergence_matrix_free", "convergence", "--shape sphere --h 0.2 --matrix-free --out {dir}/cmf", "", true, "| 0.2 | ii | 462 | (matrix-free) |"},
+    {"surface_convergence_matrix_free", "convergence", "--shape sphere --h 0.2 --matrix-free --out {dir}/cmf", "", true, "| 0.2 | ii | L | 462 | (matrix-free) |"},
+    {"surface_convergence_bias_corrected", "convergence", "--shape sphere --h 0.2 --matrix-free --bias-correction --out {dir}/cbc", "", true, "| 0.2 | ii | bias-corrected | 462 | (matrix-free) |"},
+    {"curve_convergence_bias_correction", "convergence", "--shape flower --bias-correction", "", false, "--bias-correction is for surfaces here"},
     {"curve_convergence_matrix_free", "convergence", "--shape flower --matrix-free", "", false, "--matrix-free is for surfaces here"},
     {"volume_labels_largest", "operator", "--volume {data}/../fuzz/volume_corpus/labels_u2.npy --largest --kR 0.5 --length-scale 1 --out {dir}/lab", "", true, "surfels.ply"},
     {"surface_heat", "heat", "--shape sphere --h 0.15 --tau 0.2 --steps 10 --snapshots 3 --out {dir}/heat3", "", true, "heat.ply"},
