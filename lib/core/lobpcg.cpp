@@ -3,6 +3,7 @@
 #include "huge_pages.hpp"
 
 #include <Eigen/Eigenvalues>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
@@ -130,6 +131,49 @@ Eigen::MatrixXd orthonormal_coordinates(const Eigen::MatrixXd& gram) {
   return map;
 }
 
+// W made orthogonal to X and P (both orthonormal, P possibly empty) and orthonormal itself:
+// twice (W -= X X^T W, W -= P P^T W, W <- W orthonormal_coordinates(W^T W)), as one pass leaves
+// rounding of the size of what it removed. Directions W only repeats are dropped.
+void orthonormalize_against(const ConstBlock& x, const ConstBlock& p, Eigen::MatrixXd& w) {
+  for (int pass = 0; pass < 2 && w.cols() > 0; ++pass) {
+    subtract_combination(x, gram(x, w), w);
+    if (p.cols() > 0) subtract_combination(p, gram(p, w), w);
+    const Eigen::MatrixXd map = orthonormal_coordinates(gram(w, w));
+    Eigen::MatrixXd orthonormal;
+    combine(w, map, orthonormal);
+    w = std::move(orthonormal);
+  }
+}
+
+// The coordinates in S = [X W P] (orthonormal) of the next P: the W, P parts of the new X's
+// columns `active` (rows bx.. of x_coordinates), made orthogonal to the new X in coordinates and
+// orthonormal (Householder QR of [x_coordinates | those parts], where the small matrices cost
+// nothing). P = S Q and C P = (C S) Q then agree to rounding, the next basis is orthonormal,
+// and span[X_new, P] = span[X_new, X] on those columns, as in Knyazev's P. A column whose part
+// left after X_new is below 1e-10 (X did not move) is dropped.
+Eigen::MatrixXd next_p_coordinates(const Eigen::MatrixXd& x_coordinates, Eigen::Index bx, const std::vector<Eigen::Index>& active) {
+  const Eigen::Index cols = x_coordinates.rows(), keep = x_coordinates.cols();
+  std::vector<Eigen::Index> moving;
+  for (const Eigen::Index c : active)
+    if (c < keep) moving.push_back(c);
+  Eigen::MatrixXd stacked(cols, keep + static_cast<Eigen::Index>(moving.size()));
+  stacked.leftCols(keep) = x_coordinates;
+  for (std::size_t k = 0; k < moving.size(); ++k) {
+    auto z = stacked.col(keep + static_cast<Eigen::Index>(k));
+    z = x_coordinates.col(moving[k]);
+    z.head(bx).setZero();
+  }
+  if (stacked.cols() > cols) stacked.conservativeResize(cols, cols);  // no more directions than S has
+  const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked);
+  const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(cols, stacked.cols());
+  std::vector<Eigen::Index> kept;
+  for (Eigen::Index j = keep; j < stacked.cols(); ++j)
+    if (std::abs(qr.matrixQR()(j, j)) > 1e-10) kept.push_back(j);
+  Eigen::MatrixXd out(cols, static_cast<Eigen::Index>(kept.size()));
+  for (std::size_t k = 0; k < kept.size(); ++k) out.col(static_cast<Eigen::Index>(k)) = q.col(kept[k]);
+  return out;
+}
+
 // Rayleigh-Ritz on span(S), given S^T S and S^T C S: the `keep` smallest Ritz values, and the
 // coordinates in S of their Ritz vectors.
 struct RitzPairs {
@@ -194,9 +238,7 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     }
     if (iteration == max_iterations) break;
     // Soft locking: the columns whose residual is already below the tolerance add no direction
-    // to W and P. Their residuals and P columns are rounding noise, which the Rayleigh-Ritz step
-    // (columns scaled to unit norm) would otherwise blow up into spurious directions: with a
-    // preconditioner, LOBPCG then stalled just above convergence and ran to max_iterations.
+    // to W (their residuals are rounding noise) nor to the next P.
     std::vector<Eigen::Index> active;
     for (Eigen::Index c = 0; c < bx; ++c)
       if (result.residual_norms[c] > tolerance) active.push_back(c);
@@ -204,23 +246,16 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
       Eigen::MatrixXd kept(n, static_cast<Eigen::Index>(active.size()));
       for (std::size_t c = 0; c < active.size(); ++c) kept.col(static_cast<Eigen::Index>(c)) = r.col(active[c]);
       r = std::move(kept);
-      if (p.cols() == bx) {
-        Eigen::MatrixXd kept_p(n, static_cast<Eigen::Index>(active.size())), kept_cp(n, static_cast<Eigen::Index>(active.size()));
-        for (std::size_t c = 0; c < active.size(); ++c) {
-          kept_p.col(static_cast<Eigen::Index>(c)) = p.col(active[c]);
-          kept_cp.col(static_cast<Eigen::Index>(c)) = cp.col(active[c]);
-        }
-        p = std::move(kept_p);
-        cp = std::move(kept_cp);
-      }
     }
-    // Preconditioned residuals, made orthogonal to X (twice: once is not enough in floating
-    // point when X has nearly converged), then multiplied by C.
+    // Preconditioned residuals, made orthogonal to X and P and orthonormal, then multiplied by
+    // C: the basis [X W P] is orthonormal. Rayleigh-Ritz on a merely independent basis (its
+    // Gram matrix inverted) lost 1e-12 directions on real labels as X converged, and the
+    // iteration stalled at 100 times the tolerance (issue 23).
     apply_t(r, w);
-    for (int pass = 0; pass < 2; ++pass) subtract_combination(x, gram(x, w), w);
+    orthonormalize_against(x, p, w);
     apply_c(w, cw);
     result.products += static_cast<int>(w.cols());
-    // Rayleigh-Ritz on [X, W, P]; only S^T S and S^T C S are formed (no orthonormalized copy).
+    // Rayleigh-Ritz on [X, W, P]; only S^T S (about I) and S^T C S are formed.
     const Eigen::Index bw = w.cols(), bp = p.cols(), cols = bx + bw + bp;
     s.middleCols(bx, bw) = w;
     cs.middleCols(bx, bw) = cw;
@@ -230,17 +265,16 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
     ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
-    // P = the new X's part along W and P, formed as that combination, and the new X as
-    // X c_x + P: X_new - X c_x would be the same in exact arithmetic, but it cancels as X
-    // converges and leaves P and C P inconsistent (the iteration then diverges; seen at
-    // residuals near 1e-6). X c_x + P is X_new's own sum, in another order, at a third of the
-    // work of [X W P] c.
-    const Eigen::MatrixXd tail_coordinates = ritz.coordinates.bottomRows(tail);
+    // The next P and C P from the same coordinates (they agree to rounding), then the new X
+    // and C X as X c_x + (their W, P part), in place.
+    const Eigen::MatrixXd p_coordinates = next_p_coordinates(ritz.coordinates, bx, active);
+    combine(basis, p_coordinates, p);
+    combine(image, p_coordinates, cp);
+    combine(basis.rightCols(tail), ritz.coordinates.bottomRows(tail), r);
+    combine(image.rightCols(tail), ritz.coordinates.bottomRows(tail), cw);
     const Eigen::MatrixXd x_coordinates = ritz.coordinates.topRows(bx);
-    combine(basis.rightCols(tail), tail_coordinates, p);
-    combine(image.rightCols(tail), tail_coordinates, cp);
-    combine_in_place(s, x_coordinates, p);
-    combine_in_place(cs, x_coordinates, cp);
+    combine_in_place(s, x_coordinates, r);
+    combine_in_place(cs, x_coordinates, cw);
     bx = keep;
     lambda = ritz.values;
   }

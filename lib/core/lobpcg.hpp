@@ -3,9 +3,10 @@
 // Written here because Spectra's LOBPCG (contrib) needs C as a stored sparse matrix, and the
 // point of this solver is the matrix-free operator.
 //
-// Each iteration: residuals R = C X - X Lambda, W = T R, Rayleigh-Ritz on span[X, W, P]
-// (orthonormalized through the eigen-decomposition of its Gram matrix, nearly dependent
-// directions dropped), P = the W, P part of the new X. One block product per iteration.
+// Each iteration: residuals R = C X - X Lambda, W = T R made orthogonal to X and P and
+// orthonormal, Rayleigh-Ritz on the orthonormal basis [X, W, P], the next P = the W, P part of
+// the new X made orthogonal to it and orthonormal in coordinates (Hetmaniuk and Lehoucq 2006,
+// "Basis selection in LOBPCG"). One block product per iteration.
 #pragma once
 
 #include <Eigen/Core>
