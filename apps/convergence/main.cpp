@@ -25,8 +25,8 @@ namespace {
 // log-log figure.
 int surface_convergence(const std::string& spec, const std::string& function, std::vector<double> steps,
                         const HeatLaplacianOptions& base, double k_R, double length_scale, const std::vector<double>& centre,
-                        double rotate_degrees, bool matrix_free, bool bias_correction, const std::string& out_dir,
-                        app::Progress& progress) {
+                        double rotate_degrees, bool matrix_free, bool bias_correction,
+                        const std::vector<std::string>& normal_variants, const std::string& out_dir, app::Progress& progress) {
   auto shape = surface::make_surface(spec);
   surface::sample_test_function(*shape, function, Eigen::MatrixX3d(0, 3));  // an unknown name refused before any work
   const Eigen::Vector3d c = centre.empty() ? Eigen::Vector3d(0.0123, -0.0371, 0.0217) : Eigen::Vector3d(centre[0], centre[1], 0);
@@ -45,7 +45,7 @@ int surface_convergence(const std::string& spec, const std::string& function, st
     const surface::VoxelSet voxels = surface::digitize(*shape, h);
     const surface::SurfelSet surfels = surface::extract_surfels(voxels);
     const surface::SurfelNormals ii = surface::ii_normals(voxels, surfels, {kR, length_scale});
-    for (const std::string variant : {"ii", "exact"}) {
+    for (const std::string& variant : normal_variants) {
       const surface::SurfelNormals normals = variant == "ii" ? ii : surface::exact_normals(*shape, surfels, ii.length_scale);
       const surface::SurfelMeasures mu = surface::measures(surfels, normals);
       const surface::SurfaceTestSamples exact = surface::sample_test_function(*shape, function, surfels.centres());
@@ -94,7 +94,7 @@ int surface_convergence(const std::string& spec, const std::string& function, st
   plot.y_label = "relative max error";
   std::printf("\n| normals | estimate | rel max err at h = %g | slope (all h) |\n|---|---|---|---|\n", steps.back());
   for (const std::string& estimate : estimates)
-    for (const std::string variant : {"ii", "exact"}) {
+    for (const std::string& variant : normal_variants) {
       app::PlotSeries series;
       for (const Row& r : rows)
         if (r.variant == variant && r.estimate == estimate) {
@@ -178,6 +178,12 @@ int main(int argc, char** argv) {
   app.add_flag("--bias-correction", bias_correction,
                "Surfaces: also measure L_c g = L g - (t/2) L (I + t L) L g, the kernel's O(t) bias removed "
                "(three products more per h; core/bias_correction.hpp)");
+  std::string normals = "both";
+  app.add_option("--normals", normals,
+                 "Surfaces: which normals the measures come from: ii (estimated on the voxels, what a user has), "
+                 "exact (the shape's, isolating the operator's own error) or both (two rows per h; exact doubles the sweep)")
+      ->check(CLI::IsMember({"ii", "exact", "both"}))
+      ->capture_default_str();
   bool matrix_free = false;
   app.add_flag("--matrix-free", matrix_free,
                "Surfaces: each L g computed on the fly, never stored (memory O(N): reaches h = 0.005 on the unit sphere)");
@@ -199,11 +205,16 @@ int main(int argc, char** argv) {
       for (double h : steps)
         if (!(h > 0) || !std::isfinite(h)) throw Error("every h must be > 0 and finite, got " + std::to_string(h));
       app::Progress progress(quiet);
+      const std::vector<std::string> normal_variants =
+          normals == "both" ? std::vector<std::string>{"ii", "exact"} : std::vector<std::string>{normals};
       return surface_convergence(shape_name, function, steps, base, k_R, length_scale, centre, rotate_degrees, matrix_free,
-                                 bias_correction, out_dir, progress);
+                                 bias_correction, normal_variants, out_dir, progress);
     }
     if (app.count("--surface-kernel") > 0) throw Error("--surface-kernel is for surfaces (--shape sphere, ellipsoid or torus)");
     if (bias_correction) throw Error("--bias-correction is for surfaces here (--shape sphere, ellipsoid or torus)");
+    if (app.count("--normals") > 0)
+      throw Error("--normals is for surfaces here (contours: choose operators with exact normals by name, e.g. "
+                  "--operators geodesic geodesic-exact)");
     if (matrix_free) throw Error("--matrix-free is for surfaces here (contours: the convergence sweep is assembled; digilap-spectrum --matrix-free)");
     auto shape = make_shape(shape_name);
     if (!std::isfinite(rotate_degrees)) throw Error("--rotate must be a finite angle in degrees");
