@@ -189,6 +189,24 @@ RitzPairs rayleigh_ritz(const Eigen::MatrixXd& gram, const Eigen::MatrixXd& proj
   return {eig.eigenvalues().head(keep), map * eig.eigenvectors().leftCols(keep)};
 }
 
+// The same on an orthonormal S (S^T S = I to rounding): the eigenproblem of S^T C S alone.
+RitzPairs rayleigh_ritz_orthonormal(Eigen::MatrixXd projected, Eigen::Index keep) {
+  projected = 0.5 * (projected + projected.transpose()).eval();
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(projected);
+  keep = std::min<Eigen::Index>(keep, projected.rows());
+  return {eig.eigenvalues().head(keep), eig.eigenvectors().leftCols(keep)};
+}
+
+// Whether every column of S has unit norm within 1e-10: the cheap check (N x cols) that the
+// basis LOBPCG built orthonormal still is. Its columns are orthogonal by construction (W
+// against X and P, P against X in coordinates, X and P from orthonormal coordinates); what
+// rounding could make drift over many iterations is caught here first, and then S^T S is formed.
+bool unit_columns(const ConstBlock& s) {
+  for (Eigen::Index c = 0; c < s.cols(); ++c)
+    if (std::abs(s.col(c).squaredNorm() - 1) > 1e-10) return false;
+  return true;
+}
+
 }  // namespace
 
 Eigen::MatrixXd lobpcg_start(Eigen::Index n, Eigen::Index b) {
@@ -255,7 +273,9 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     orthonormalize_against(x, p, w);
     apply_c(w, cw);
     result.products += static_cast<int>(w.cols());
-    // Rayleigh-Ritz on [X, W, P]; only S^T S (about I) and S^T C S are formed.
+    // Rayleigh-Ritz on [X, W, P], orthonormal: S^T C S alone (S^T S, its eigen-decomposition
+    // and the map from it were a third of the time on small labels, where the dense algebra
+    // outweighs the products). Should the columns' norms have drifted, S^T S is formed.
     const Eigen::Index bw = w.cols(), bp = p.cols(), cols = bx + bw + bp;
     s.middleCols(bx, bw) = w;
     cs.middleCols(bx, bw) = cw;
@@ -263,7 +283,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     cs.middleCols(bx + bw, bp) = cp;
     const auto basis = s.leftCols(cols), image = cs.leftCols(cols);
     const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
-    ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
+    if (unit_columns(basis)) ritz = rayleigh_ritz_orthonormal(symmetric_gram(basis, image, ends), b);
+    else ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
     // The next P and C P from the same coordinates (they agree to rounding), then the new X
     // and C X as X c_x + (their W, P part), in place.

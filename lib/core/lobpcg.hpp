@@ -4,9 +4,10 @@
 // point of this solver is the matrix-free operator.
 //
 // Each iteration: residuals R = C X - X Lambda, W = T R made orthogonal to X and P and
-// orthonormal, Rayleigh-Ritz on the orthonormal basis [X, W, P], the next P = the W, P part of
-// the new X made orthogonal to it and orthonormal in coordinates (Hetmaniuk and Lehoucq 2006,
-// "Basis selection in LOBPCG"). One block product per iteration.
+// orthonormal, Rayleigh-Ritz on the orthonormal basis [X, W, P] (the eigenproblem of S^T C S
+// alone), the next P = the W, P part of the new X made orthogonal to it and orthonormal in
+// coordinates (Hetmaniuk and Lehoucq 2006, "Basis selection in LOBPCG"). One block product per
+// iteration.
 #pragma once
 
 #include <Eigen/Core>
