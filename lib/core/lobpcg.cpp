@@ -149,8 +149,12 @@ void orthonormalize_against(const ConstBlock& x, const ConstBlock& p, Eigen::Mat
 // columns `active` (rows bx.. of x_coordinates), made orthogonal to the new X in coordinates and
 // orthonormal (Householder QR of [x_coordinates | those parts], where the small matrices cost
 // nothing). P = S Q and C P = (C S) Q then agree to rounding, the next basis is orthonormal,
-// and span[X_new, P] = span[X_new, X] on those columns, as in Knyazev's P. A column whose part
-// left after X_new is below 1e-10 (X did not move) is dropped.
+// and span[X_new, P] = span[X_new, X] on those columns, as in Knyazev's P. A column is dropped
+// when its part is rounding (below 1e-14: X did not move) or when what is left of it after X_new
+// and the columns before is below 1e-8 of it (a direction already there). The test is relative:
+// near convergence the parts are 1e-9 to 1e-5, and an absolute 1e-10 dropped all but one or two
+// of 75 columns, leaving a steepest descent (Harvard-Oxford 1 mm label 29: 225 iterations, 77
+// with the relative test).
 Eigen::MatrixXd next_p_coordinates(const Eigen::MatrixXd& x_coordinates, Eigen::Index bx, const std::vector<Eigen::Index>& active) {
   const Eigen::Index cols = x_coordinates.rows(), keep = x_coordinates.cols();
   std::vector<Eigen::Index> moving;
@@ -167,8 +171,10 @@ Eigen::MatrixXd next_p_coordinates(const Eigen::MatrixXd& x_coordinates, Eigen::
   const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked);
   const Eigen::MatrixXd q = qr.householderQ() * Eigen::MatrixXd::Identity(cols, stacked.cols());
   std::vector<Eigen::Index> kept;
-  for (Eigen::Index j = keep; j < stacked.cols(); ++j)
-    if (std::abs(qr.matrixQR()(j, j)) > 1e-10) kept.push_back(j);
+  for (Eigen::Index j = keep; j < stacked.cols(); ++j) {
+    const double part = stacked.col(j).norm();
+    if (part > 1e-14 && std::abs(qr.matrixQR()(j, j)) > 1e-8 * part) kept.push_back(j);
+  }
   Eigen::MatrixXd out(cols, static_cast<Eigen::Index>(kept.size()));
   for (std::size_t k = 0; k < kept.size(); ++k) out.col(static_cast<Eigen::Index>(k)) = q.col(kept[k]);
   return out;

@@ -203,6 +203,43 @@ TEST(MatrixFreeSurface, ZeroAreasCuttingASurfaceGiveOnePiecePerSide) {
   for (Eigen::Index k = 0; k < 6; ++k) EXPECT_NEAR(products.eigenvalues[k], stored.eigenvalues[k], 1e-9 * stored.eigenvalues[5]) << k;
 }
 
+TEST(MatrixFreeSurface, PreconditionerGraphJoinsWhatTheKernelJoins) {
+  // The rod above with five bands of mu = 0, three rows wide (4 h between the rows left on
+  // either side: within the kernel's cut of 4.8 h, beyond the preconditioner's 1.5 h), and in
+  // each band's middle row some surfels kept: islands 2 h from everything else. One piece for
+  // the operator; for a graph cut at 1.5 h, six segments and the islands, whose indicators
+  // (K + sigma M)^(-1) amplifies by 1 / sigma, while the operator sees them as spikes. LOBPCG
+  // then stalled and fell back: 196 iterations (Harvard-Oxford 1 mm label 17, thin ridges of
+  // zero area: 280). The graph's cut now grows until it is connected: 17; 40 leaves room. The
+  // eigenvalues are the assembled operator's (1e-9, as above).
+  std::vector<Eigen::Vector3i> v;
+  for (int k = 0; k < 90; ++k)
+    for (int j = 0; j < 9; ++j)
+      for (int i = 0; i < 9; ++i)
+        if ((i - 4.1) * (i - 4.1) + (j - 3.9) * (j - 3.9) < 12) v.emplace_back(i, j, k);
+  Pipeline p = filtered(VoxelSet::from_voxels(1.0, v));
+  const Eigen::MatrixX3d centres = p.surfels.centres();
+  Eigen::Index islands = 0;
+  for (Eigen::Index r = 0; r < centres.rows(); ++r) {
+    const double z = centres(r, 2), from_band = std::abs(z - 15 * std::round(z / 15));
+    if (z < 7 || z > 83 || from_band > 1.2) continue;  // rows z = 15 +- 1, 30 +- 1, .., 75 +- 1
+    const bool island = from_band < 0.1 && static_cast<int>(std::floor(centres(r, 0) + 2 * centres(r, 1))) % 4 == 0;
+    if (island) ++islands;
+    else p.mu.mu[r] = 0;
+  }
+  ASSERT_GT(islands, 10);
+  const SurfaceOperator op = heat_laplacian(p.surfels, p.mu);
+  ASSERT_GT(op.cut, 4.0);  // the kernel reaches across a band (4 h)
+  const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+  SpectrumOptions o;
+  o.count = 20;
+  const Spectrum stored = smallest_eigenpairs(op, o), products = smallest_eigenpairs(free, o);
+  EXPECT_GT(products.eigenvalues[1], 1e-6 * stored.eigenvalues[19]);  // one piece: one zero eigenvalue
+  EXPECT_LE(products.iterations, 40);
+  for (Eigen::Index k = 0; k < 20; ++k)
+    EXPECT_NEAR(products.eigenvalues[k], stored.eigenvalues[k], 1e-9 * stored.eigenvalues[19]) << k;
+}
+
 TEST(MatrixFreeSurface, ThinRealLabelsConvergePreconditioned) {
   // Two tracts of the JHU atlas at 1 mm (labels 11 and 35, cropped; at the length-scale floor,
   // t = 0.635 h^2) on which the preconditioned LOBPCG used to stall and fall back to the
