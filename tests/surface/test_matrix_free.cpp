@@ -32,6 +32,16 @@ double product_error(const SparseMatrix& A, const Eigen::MatrixXd& x, const Eige
   return (y - z).cwiseAbs().maxCoeff() / (scale * x.cwiseAbs().maxCoeff());
 }
 
+// A rod 90 voxels long, about 7 across, along z.
+VoxelSet rod() {
+  std::vector<Eigen::Vector3i> v;
+  for (int k = 0; k < 90; ++k)
+    for (int j = 0; j < 9; ++j)
+      for (int i = 0; i < 9; ++i)
+        if ((i - 4.1) * (i - 4.1) + (j - 3.9) * (j - 3.9) < 12) v.emplace_back(i, j, k);
+  return VoxelSet::from_voxels(1.0, v);
+}
+
 }  // namespace
 
 TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
@@ -180,12 +190,7 @@ TEST(MatrixFreeSurface, ZeroAreasCuttingASurfaceGiveOnePiecePerSide) {
   // into two pieces the kernel does not join (each band surfel still sees one of them). Both
   // solvers give two zero eigenvalues, the same spectrum (1e-9, as above), and the same
   // heat-kernel averages on the band (1e-6).
-  std::vector<Eigen::Vector3i> v;
-  for (int k = 0; k < 90; ++k)
-    for (int j = 0; j < 9; ++j)
-      for (int i = 0; i < 9; ++i)
-        if ((i - 4.1) * (i - 4.1) + (j - 3.9) * (j - 3.9) < 12) v.emplace_back(i, j, k);
-  Pipeline p = filtered(VoxelSet::from_voxels(1.0, v));
+  Pipeline p = filtered(rod());
   const double cut = heat_laplacian(p.surfels, p.mu).cut;
   const Eigen::MatrixX3d centres = p.surfels.centres();
   Eigen::Index zeroed = 0;
@@ -212,12 +217,7 @@ TEST(MatrixFreeSurface, PreconditionerGraphJoinsWhatTheKernelJoins) {
   // then stalled and fell back: 196 iterations (Harvard-Oxford 1 mm label 17, thin ridges of
   // zero area: 280). The graph's cut now grows until it is connected: 17; 40 leaves room. The
   // eigenvalues are the assembled operator's (1e-9, as above).
-  std::vector<Eigen::Vector3i> v;
-  for (int k = 0; k < 90; ++k)
-    for (int j = 0; j < 9; ++j)
-      for (int i = 0; i < 9; ++i)
-        if ((i - 4.1) * (i - 4.1) + (j - 3.9) * (j - 3.9) < 12) v.emplace_back(i, j, k);
-  Pipeline p = filtered(VoxelSet::from_voxels(1.0, v));
+  Pipeline p = filtered(rod());
   const Eigen::MatrixX3d centres = p.surfels.centres();
   Eigen::Index islands = 0;
   for (Eigen::Index r = 0; r < centres.rows(); ++r) {
