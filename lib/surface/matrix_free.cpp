@@ -15,8 +15,15 @@
 #include <cstring>
 #include <cmath>
 #include <sstream>
+#include <type_traits>
 
 namespace digilap::surface {
+
+// The products' grid: cells of half the cut. A tile of 4 consecutive items then rarely spans
+// two cells (a torus at h = 0.025, N = 35,936: the tiles' candidates near their centres were
+// 1.29 times a row's own neighbours with cells of half the cut, 1.38 with a quarter; a product
+// of 30 columns 0.168 s against 0.198 s).
+constexpr double kCellsPerCut = 2;
 
 // One surface: its grid over its own centres (rows local to the surface) and its kernel. With
 // the intrinsic kernel, the grid holds the normals (in its item order, the queries' too), and
@@ -30,7 +37,7 @@ struct MatrixFreeSurfaceOperator::Part {
   Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
   Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
        const Eigen::MatrixX3d* normals_)
-      : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_), kernel(k) {
+      : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_, kCellsPerCut), kernel(k) {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
     if (normals_)
       factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
@@ -63,54 +70,244 @@ namespace {
 // builds).
 typedef double Lanes8 __attribute__((vector_size(64)));
 
-// out[0, V * L) = sum_k a_k x_{col_k}[0, V * L) for V vectors of L lanes, the V sums held in
-// registers for the whole row (with a run-time width they were loaded and stored back for every
-// neighbour, and the stores bounded the loop; the compiler would not vectorize the fixed-width
-// loop by itself). x stored row by row, `stride` values a row.
-template <class Lanes, int V>
-__attribute__((always_inline)) inline void accumulate_columns(const double* a, const int* col, Eigen::Index count, const double* x, Eigen::Index stride,
-                               double* out) {
-  constexpr int L = sizeof(Lanes) / sizeof(double);
-  Lanes sum[V] = {};
+// The products' rows go R = 4 at a time (a tile: consecutive grid items, in Morton order within
+// a cell, so a few h apart), over candidates that hold all their neighbours: each candidate's
+// values are then loaded once for 4 rows instead of once a row (with one row at a time, the
+// loads of the neighbours' values, 256 bytes each for 32 columns, bounded the loop), and its
+// position once for 4 rows' distances. A row's weight is 0 at the candidates outside its own
+// cut. Every row's sums run in a fixed order (the candidates' order, in lanes of 8 added in a
+// fixed order), whatever the thread that computes them.
+constexpr int kTileRows = 4;
+
+// An unaligned view of 8 doubles (a neighbour's values need not start on 64 bytes).
+typedef double Lanes8u __attribute__((vector_size(64), aligned(8)));
+
+// out_r[0, V * 8) = sum_k w_r[k] x_{col_k}[0, V * 8) for the R rows of a tile, the R V sums held
+// in registers (with a run-time width they were loaded and stored back for every neighbour).
+// x stored row by row, `stride` values a row.
+template <int R, int V>
+__attribute__((always_inline)) inline void accumulate_tile(const double* const* w, const int* col, Eigen::Index count, const double* x,
+                                                          Eigen::Index stride, double* const* out) {
+  Lanes8 sum[R][V] = {};
   for (Eigen::Index k = 0; k < count; ++k) {
-    const Lanes ak = Lanes{} + a[k];
-    const double* xj = x + static_cast<std::ptrdiff_t>(col[k]) * stride;
-    for (int v = 0; v < V; ++v) {
-      Lanes xv;
-      std::memcpy(&xv, xj + v * L, sizeof(Lanes));
-      sum[v] += ak * xv;
+    const Lanes8u* xj = reinterpret_cast<const Lanes8u*>(x + static_cast<std::ptrdiff_t>(col[k]) * stride);
+    Lanes8 xv[V];
+    for (int v = 0; v < V; ++v) xv[v] = xj[v];
+    for (int r = 0; r < R; ++r) {
+      const double wk = w[r][k];  // scalar times vector: one broadcast
+      for (int v = 0; v < V; ++v) sum[r][v] += wk * xv[v];
     }
   }
-  std::memcpy(out, sum, sizeof(sum));
+  for (int r = 0; r < R; ++r)
+    for (int v = 0; v < V; ++v) *reinterpret_cast<Lanes8u*>(out[r] + 8 * v) = sum[r][v];
 }
 
-// out[0, b) = sum_k a_k x_{col_k}[0, b), x stored row by row, b values a row: the products' hot
-// loop. A block of 8 columns or more comes padded with zeros to a multiple of 8 and is summed 32
-// columns a pass over the neighbours, then 24, 16 or 8: up to 32 vectors in one pass (the
-// neighbours' rows are scattered in memory, so each pass costs about as much as the loads it
-// waits for; padding 30 columns to 32 was faster than a last pass for 2). Fewer than 8 columns
-// (a heat step, one product of the convergence sweep) are not padded, so that a neighbour's
-// values share its cache line with the next ones. Each sum in the order of k, built for
-// AVX-512 and AVX2 too and chosen at run time (the same CPU always runs the same build, so
-// results do not depend on the threads).
+template <int R>
+__attribute__((always_inline)) inline void accumulate_rows(const double* const* w, const int* col, Eigen::Index count, const double* x,
+                                                          Eigen::Index b, double* const* out, bool wide) {
+  double* o[R];
+  Eigen::Index c = 0;
+  auto pass = [&](auto columns) {  // columns: V * 8 of them, from c
+    for (int r = 0; r < R; ++r) o[r] = out[r] + c;
+    accumulate_tile<R, decltype(columns)::value / 8>(w, col, count, x + c, b, o);
+    c += decltype(columns)::value;
+  };
+  // AVX-512: 32 columns a pass (R x 4 registers of sums, of 32); else 8 (R x 2 of 16 AVX2 ones).
+  if (wide)
+    for (; c + 32 <= b;) pass(std::integral_constant<int, 32>{});
+  for (; c < b;) pass(std::integral_constant<int, 8>{});
+}
+
+// Fewer than 8 columns, unpadded (b values a row): for each column, 8 partial sums a row over
+// the neighbours 8 at a time, then added in a fixed order (one sum a row was a chain of
+// dependent additions, 4 cycles a neighbour).
+template <int R>
+__attribute__((always_inline)) inline void accumulate_narrow(const double* const* w, const int* col, Eigen::Index count, const double* x,
+                                                            Eigen::Index b, double* const* out) {
+  for (Eigen::Index c = 0; c < b; ++c) {
+    Lanes8 partial[R] = {};
+    Eigen::Index k = 0;
+    for (; k + 8 <= count; k += 8) {
+      Lanes8 xv;
+      for (int l = 0; l < 8; ++l) xv[l] = x[static_cast<std::ptrdiff_t>(col[k + l]) * b + c];
+      for (int r = 0; r < R; ++r) partial[r] += *reinterpret_cast<const Lanes8u*>(w[r] + k) * xv;
+    }
+    for (int r = 0; r < R; ++r) {
+      double sum = 0;
+      for (int l = 0; l < 8; ++l) sum += partial[r][l];
+      for (Eigen::Index j = k; j < count; ++j) sum += w[r][j] * x[static_cast<std::ptrdiff_t>(col[j]) * b + c];
+      out[r][c] = sum;
+    }
+  }
+}
+
+// out_r[0, b) = sum_k w_r[k] x_{col_k}[0, b) for the `rows` rows of a tile, x stored row by row,
+// b values a row: the products' hot loop. A block of 8 columns or more comes padded with zeros
+// to a multiple of 8. Fewer than 8 columns (a heat step, one product of the convergence sweep)
+// are not padded, so that a neighbour's values share its cache line with the next ones. Each
+// sum in a fixed order for a given build (AVX-512, AVX2 or baseline, chosen at run time; the
+// same CPU always runs the same build, so results do not depend on the threads).
 constexpr Eigen::Index kLanes = 8;
 Eigen::Index padded_columns(Eigen::Index b) { return b < kLanes ? b : (b + kLanes - 1) / kLanes * kLanes; }
+const bool kWideVectors = __builtin_cpu_supports("avx512f");
 
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void accumulate_row(
-    const double* a, const int* col, Eigen::Index count, const double* x, Eigen::Index b, double* out) {
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void accumulate_tile_rows(
+    const double* const* w, int rows, const int* col, Eigen::Index count, const double* x, Eigen::Index b, double* const* out) {
   if (b < kLanes) {
-    for (Eigen::Index c = 0; c < b; ++c) {
-      double sum = 0;
-      for (Eigen::Index k = 0; k < count; ++k) sum += a[k] * x[static_cast<std::ptrdiff_t>(col[k]) * b + c];
-      out[c] = sum;
+    switch (rows) {
+      case 4: accumulate_narrow<4>(w, col, count, x, b, out); break;
+      case 3: accumulate_narrow<3>(w, col, count, x, b, out); break;
+      case 2: accumulate_narrow<2>(w, col, count, x, b, out); break;
+      default: accumulate_narrow<1>(w, col, count, x, b, out); break;
     }
     return;
   }
-  Eigen::Index c = 0;
-  for (; c + 32 <= b; c += 32) accumulate_columns<Lanes8, 4>(a, col, count, x + c, b, out + c);
-  if (c + 24 == b) accumulate_columns<Lanes8, 3>(a, col, count, x + c, b, out + c);
-  if (c + 16 == b) accumulate_columns<Lanes8, 2>(a, col, count, x + c, b, out + c);
-  if (c + 8 == b) accumulate_columns<Lanes8, 1>(a, col, count, x + c, b, out + c);
+  switch (rows) {
+    case 4: accumulate_rows<4>(w, col, count, x, b, out, kWideVectors); break;
+    case 3: accumulate_rows<3>(w, col, count, x, b, out, kWideVectors); break;
+    case 2: accumulate_rows<2>(w, col, count, x, b, out, kWideVectors); break;
+    default: accumulate_rows<1>(w, col, count, x, b, out, kWideVectors); break;
+  }
+}
+
+// One thread's buffers for a tile: the candidates near the tile (grid positions, coordinates,
+// normals, measures), then each row's squared distances to them (chord and kernel) and weights.
+struct TileBuffer {
+  std::vector<int> col;
+  std::vector<double> x, y, z, nx, ny, nz, mass;
+  std::vector<double> chord2[kTileRows], d2[kTileRows];
+  void reserve(std::size_t n) {
+    if (col.size() >= n) return;
+    n *= 2;
+    col.resize(n), x.resize(n), y.resize(n), z.resize(n), nx.resize(n), ny.resize(n), nz.resize(n), mass.resize(n);
+    for (int r = 0; r < kTileRows; ++r) chord2[r].resize(n), d2[r].resize(n);
+  }
+};
+
+// The grid items of [begin, end) within `reach2` (squared) of `centre`, appended to `col` from
+// `count` on; returns the new count. Their distances first, in a loop that vectorizes; then a
+// branch-free compaction of indices alone (copying each candidate's coordinates in the same
+// loop made every store wait on the previous comparison).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) std::size_t near_items(
+    const double* __restrict xs, const double* __restrict ys, const double* __restrict zs, std::size_t begin, std::size_t end,
+    const double* centre, double reach2, double* __restrict distance2, int* __restrict col, std::size_t count) {
+  const double cx = centre[0], cy = centre[1], cz = centre[2];
+  const std::size_t n = end - begin;
+  for (std::size_t k = 0; k < n; ++k) {
+    const double dx = xs[begin + k] - cx, dy = ys[begin + k] - cy, dz = zs[begin + k] - cz;
+    distance2[k] = dx * dx + dy * dy + dz * dz;
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    col[count] = static_cast<int>(begin + k);
+    count += distance2[k] <= reach2;
+  }
+  return count;
+}
+
+// The kept candidates' coordinates, normals (intrinsic kernel) and measures, contiguous.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void gather_candidates(
+    const detail::Grid& grid, const double* __restrict mass, bool normals, std::size_t count, TileBuffer& buffer) {
+  const int* __restrict col = buffer.col.data();
+  double* __restrict x = buffer.x.data();
+  double* __restrict y = buffer.y.data();
+  double* __restrict z = buffer.z.data();
+  double* __restrict m = buffer.mass.data();
+  const double* __restrict xs = grid.xs.data();
+  const double* __restrict ys = grid.ys.data();
+  const double* __restrict zs = grid.zs.data();
+  for (std::size_t k = 0; k < count; ++k) x[k] = xs[col[k]], y[k] = ys[col[k]], z[k] = zs[col[k]], m[k] = mass[col[k]];
+  if (!normals) return;
+  double* __restrict nx = buffer.nx.data();
+  double* __restrict ny = buffer.ny.data();
+  double* __restrict nz = buffer.nz.data();
+  const double* __restrict nxs = grid.nxs.data();
+  const double* __restrict nys = grid.nys.data();
+  const double* __restrict nzs = grid.nzs.data();
+  for (std::size_t k = 0; k < count; ++k) nx[k] = nxs[col[k]], ny[k] = nys[col[k]], nz[k] = nzs[col[k]];
+}
+
+// A row's weights on the tile's candidates: w_k mu_k where its chord is within the cut and k is
+// not the row itself, 0 elsewhere; returns their sum (8 partial sums, then added in a fixed
+// order: the same bits whatever the thread).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) double masked_weights(
+    double* __restrict w, const double* __restrict chord2, const double* __restrict mass, const int* __restrict col, std::size_t count,
+    double cut2, int self) {
+  for (std::size_t k = 0; k < count; ++k) w[k] = chord2[k] <= cut2 && col[k] != self ? w[k] * mass[k] : 0.0;
+  Lanes8 partial = {};
+  std::size_t k = 0;
+  for (; k + 8 <= count; k += 8) {
+    Lanes8 v;
+    std::memcpy(&v, w + k, sizeof(v));
+    partial += v;
+  }
+  double sum = 0;
+  for (int l = 0; l < 8; ++l) sum += partial[l];
+  for (; k < count; ++k) sum += w[k];
+  return sum;
+}
+
+// For each tile of up to kTileRows consecutive grid items [first, first + rows) of a part,
+// f(first, rows, col, w, sum, count): candidates that hold the union of their neighbours within
+// the cut (as grid positions, in the grid's order), each row's weights w[r][k] = w_ik mu_k on
+// them (0 outside the row's cut and on its own column) and their sums: the terms the assembled
+// row holds. The candidates are the grid's within the cut plus the tile's radius of its centre
+// (one chord each), so that the kernel's distances (the intrinsic one: 20 operations) and the
+// Gaussians are computed for few more than the neighbours (a torus at h = 0.025: the grid's
+// cells offered 1.5 times the tile's neighbours).
+template <class Part, class F>
+void for_each_tile(const Part& part, F&& f) {
+  const detail::Grid& grid = part.grid;
+  const detail::Kernel& kernel = part.kernel;
+  const double cut2 = kernel.cut * kernel.cut;
+  const Eigen::Index tiles = (part.rows + kTileRows - 1) / kTileRows;
+  const bool intrinsic = part.intrinsic();
+#pragma omp parallel
+  {
+    TileBuffer buffer;  // this thread's
+#pragma omp for schedule(dynamic, 16)
+    for (Eigen::Index tile = 0; tile < tiles; ++tile) {
+      const Eigen::Index first = tile * kTileRows;
+      const int rows = static_cast<int>(std::min<Eigen::Index>(kTileRows, part.rows - first));
+      Eigen::Vector3d lo, hi;
+      for (int r = 0; r < rows; ++r) {
+        const auto it = static_cast<std::size_t>(first + r);
+        const Eigen::Vector3d q(grid.xs[it], grid.ys[it], grid.zs[it]);
+        lo = r == 0 ? q : lo.cwiseMin(q);
+        hi = r == 0 ? q : hi.cwiseMax(q);
+      }
+      // Within the cut of a row => within cut + radius of the centre (1e-9 above: rounding).
+      const Eigen::Vector3d centre = 0.5 * (lo + hi);
+      const double reach = (kernel.cut + 0.5 * (hi - lo).norm()) * (1 + 1e-9);
+      std::size_t count = 0;
+      grid.for_candidates(lo, hi, kernel.cut, [&](Eigen::Index begin, Eigen::Index end) {
+        buffer.reserve(count + static_cast<std::size_t>(end - begin));
+        count = near_items(grid.xs.data(), grid.ys.data(), grid.zs.data(), static_cast<std::size_t>(begin), static_cast<std::size_t>(end),
+                           centre.data(), reach * reach, buffer.chord2[0].data(), buffer.col.data(), count);
+      });
+      gather_candidates(grid, part.mass_in_grid.data(), intrinsic, count, buffer);
+      double sum[kTileRows];
+      double* w[kTileRows];
+      for (int r = 0; r < rows; ++r) {
+        const auto at = static_cast<std::size_t>(first + r);
+        const double q[3] = {grid.xs[at], grid.ys[at], grid.zs[at]};
+        double* chord2 = buffer.chord2[r].data();
+        w[r] = buffer.d2[r].data();
+        if (intrinsic) {
+          const double nq[3] = {grid.nxs[at], grid.nys[at], grid.nzs[at]};
+          detail::intrinsic_distances(buffer.x.data(), buffer.y.data(), buffer.z.data(), buffer.nx.data(), buffer.ny.data(),
+                                      buffer.nz.data(), count, q, nq, chord2, w[r]);
+        } else {
+          for (std::size_t k = 0; k < count; ++k) {
+            const double dx = buffer.x[k] - q[0], dy = buffer.y[k] - q[1], dz = buffer.z[k] - q[2];
+            chord2[k] = w[r][k] = dx * dx + dy * dy + dz * dz;
+          }
+        }
+        gaussian_weights(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
+        sum[r] = masked_weights(w[r], chord2, buffer.mass.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
+      }
+      f(first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
+    }
+  }
 }
 
 // For each row i of a part, f(i, cols, weights, count): its neighbours within the cut (i itself
@@ -196,23 +393,22 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   Eigen::MatrixXd xg = Eigen::MatrixXd::Zero(padded, part.rows);
   for (Eigen::Index it = 0; it < part.rows; ++it)
     xg.col(it).head(b) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
-  Eigen::MatrixXd yt(padded, part.rows);
+  Eigen::MatrixXd yt(padded, part.rows);  // in the grid's order too
   const double* mass = part.mass_in_grid.data();
-  for_each_row(part, positions_, true, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
-                 // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
-                 const int self = part.slot[static_cast<std::size_t>(i)];
-                 double sum = 0;
-                 for (Eigen::Index k = 0; k < count; ++k) {
-                   w[k] = col[k] == self ? 0.0 : w[k] * mass[col[k]];
-                   sum += w[k];
-                 }
-                 double* out = yt.col(i).data();
-                 const double* xi = xg.col(self).data();
-                 accumulate_row(w, col, count, xg.data(), padded, out);
-                 const double scale = stiffness ? mass[self] : part.row_scale[self];
-                 for (Eigen::Index c = 0; c < b; ++c) out[c] = scale * (out[c] - sum * xi[c]);
-               });
-  y = yt.topRows(b).transpose();
+  for_each_tile(part, [&](Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum, Eigen::Index count) {
+    // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
+    double* out[kTileRows];
+    for (int r = 0; r < rows; ++r) out[r] = yt.col(first + r).data();
+    accumulate_tile_rows(w, rows, col, count, xg.data(), padded, out);
+    for (int r = 0; r < rows; ++r) {
+      const Eigen::Index it = first + r;
+      const double* xi = xg.col(it).data();
+      const double scale = stiffness ? mass[it] : part.row_scale[it];
+      for (Eigen::Index c = 0; c < b; ++c) out[r][c] = scale * (out[r][c] - sum[r] * xi[c]);
+    }
+  });
+  y.resize(part.rows, b);
+  for (Eigen::Index it = 0; it < part.rows; ++it) y.row(part.grid.items[static_cast<std::size_t>(it)]) = yt.col(it).head(b).transpose();
 }
 
 namespace {

@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <numeric>
 #include <sstream>
+#include <utility>
 #include <vector>
 
 namespace digilap::surface::detail {
@@ -60,11 +61,11 @@ struct Grid {
   // intrinsic distance instead of the chord; they are kept in the item order too.
   std::vector<double> nxs, nys, nzs;
 
-  Grid(const Eigen::MatrixX3d& p, double cut, const Eigen::MatrixX3d* normals = nullptr) {
+  Grid(const Eigen::MatrixX3d& p, double cut, const Eigen::MatrixX3d* normals = nullptr, double cells_per_cut = 4) {
     const Eigen::Index n = p.rows();
     origin = p.colwise().minCoeff().transpose();
     const Eigen::Vector3d extent = p.colwise().maxCoeff().transpose() - origin;
-    cell = 0.25 * cut;
+    cell = cut / cells_per_cut;
     while ((extent.x() / cell + 1) * (extent.y() / cell + 1) * (extent.z() / cell + 1) > 8.0 * static_cast<double>(n) + 64) cell *= 2;
     nx = static_cast<Eigen::Index>(extent.x() / cell) + 1;
     ny = static_cast<Eigen::Index>(extent.y() / cell) + 1;
@@ -75,6 +76,22 @@ struct Grid {
     items.resize(static_cast<std::size_t>(n));
     std::vector<Eigen::Index> fill(start.begin(), start.end() - 1);
     for (Eigen::Index r = 0; r < n; ++r) items[static_cast<std::size_t>(fill[static_cast<std::size_t>(cell_of(p.row(r)))]++)] = r;
+    // Within a cell, items in Morton order of their position (at a 64th of the cell), ties by
+    // row: consecutive items are then close in space in every direction (in row order they ran
+    // along the surfels' scan line), so that a few consecutive rows share most neighbours (the
+    // matrix-free products take rows 4 at a time).
+    std::vector<std::pair<std::uint32_t, Eigen::Index>> keyed;
+    for (std::size_t c = 0; c + 1 < start.size(); ++c) {
+      const auto first = static_cast<std::size_t>(start[c]), last = static_cast<std::size_t>(start[c + 1]);
+      if (last - first < 3) continue;
+      keyed.clear();
+      for (std::size_t it = first; it < last; ++it) {
+        const Eigen::Index r = items[it];
+        keyed.emplace_back(morton_in_cell(p.row(r)), r);
+      }
+      std::sort(keyed.begin(), keyed.end());
+      for (std::size_t it = first; it < last; ++it) items[it] = keyed[it - first].second;
+    }
     reach = static_cast<int>(std::ceil(cut / cell));
     xs.resize(items.size()), ys.resize(items.size()), zs.resize(items.size());
     for (std::size_t it = 0; it < items.size(); ++it) xs[it] = p(items[it], 0), ys[it] = p(items[it], 1), zs[it] = p(items[it], 2);
@@ -84,33 +101,51 @@ struct Grid {
         nxs[it] = (*normals)(items[it], 0), nys[it] = (*normals)(items[it], 1), nzs[it] = (*normals)(items[it], 2);
     }
   }
+  // The Morton key of q's position inside its cell, 6 bits an axis (z, y, x interleaved).
+  std::uint32_t morton_in_cell(const Eigen::RowVector3d& q) const {
+    std::uint32_t key = 0;
+    const double v[3] = {q.x() - origin.x(), q.y() - origin.y(), q.z() - origin.z()};
+    for (int axis = 0; axis < 3; ++axis) {
+      const double inside = v[axis] / cell - std::floor(v[axis] / cell);
+      const auto bits = static_cast<std::uint32_t>(std::clamp(inside * 64, 0.0, 63.0));
+      for (int b = 0; b < 6; ++b) key |= ((bits >> b) & 1u) << (3 * b + axis);
+    }
+    return key;
+  }
   Eigen::Index index(double v, double o, Eigen::Index count) const {
     return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
   }
   Eigen::Index cell_of(const Eigen::RowVector3d& q) const {
     return (index(q.z(), origin.z(), nz) * ny + index(q.y(), origin.y(), ny)) * nx + index(q.x(), origin.x(), nx);
   }
-  // f(first, last) for the item ranges that may hold points within `cut` of q: per (y, z) row
-  // of cells, the x-cells of the ball's chord at the row's nearest point (a row's cells are
-  // contiguous in the item order).
+  // f(first, last) for the item ranges that may hold points within `cut` of a point of the box
+  // [lo, hi]: per (y, z) row of cells, the x-cells of the ball's chord at the row's nearest
+  // point, widened by the box (a row's cells are contiguous in the item order). A point's
+  // ranges are the box's with lo = hi; a box's hold every one of its points' candidates, in the
+  // same order.
   template <class F>
-  void for_candidates(const Eigen::Vector3d& q, double cut, F&& f) const {
-    const Eigen::Index cy = index(q.y(), origin.y(), ny), cz = index(q.z(), origin.z(), nz);
-    auto gap = [&](Eigen::Index c, double v, double o) {  // distance from v to cell c's interval
+  void for_candidates(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double cut, F&& f) const {
+    const Eigen::Index y0 = index(lo.y(), origin.y(), ny), y1 = index(hi.y(), origin.y(), ny);
+    const Eigen::Index z0 = index(lo.z(), origin.z(), nz), z1 = index(hi.z(), origin.z(), nz);
+    auto gap = [&](Eigen::Index c, double v0, double v1, double o) {  // distance from [v0, v1] to cell c's interval
       const double a = o + static_cast<double>(c) * cell;
-      return v < a ? a - v : std::max(0.0, v - (a + cell));
+      return v1 < a ? a - v1 : std::max(0.0, v0 - (a + cell));
     };
-    for (Eigen::Index z = std::max<Eigen::Index>(0, cz - reach); z <= std::min(nz - 1, cz + reach); ++z) {
-      const double gz = gap(z, q.z(), origin.z());
-      for (Eigen::Index y = std::max<Eigen::Index>(0, cy - reach); y <= std::min(ny - 1, cy + reach); ++y) {
-        const double gy = gap(y, q.y(), origin.y()), chord2 = cut * cut - gz * gz - gy * gy;
+    for (Eigen::Index z = std::max<Eigen::Index>(0, z0 - reach); z <= std::min(nz - 1, z1 + reach); ++z) {
+      const double gz = gap(z, lo.z(), hi.z(), origin.z());
+      for (Eigen::Index y = std::max<Eigen::Index>(0, y0 - reach); y <= std::min(ny - 1, y1 + reach); ++y) {
+        const double gy = gap(y, lo.y(), hi.y(), origin.y()), chord2 = cut * cut - gz * gz - gy * gy;
         if (chord2 < 0) continue;
         const double chord = std::sqrt(chord2);
         const Eigen::Index row = (z * ny + y) * nx;
-        f(start[static_cast<std::size_t>(row + index(q.x() - chord, origin.x(), nx))],
-          start[static_cast<std::size_t>(row + index(q.x() + chord, origin.x(), nx) + 1)]);
+        f(start[static_cast<std::size_t>(row + index(lo.x() - chord, origin.x(), nx))],
+          start[static_cast<std::size_t>(row + index(hi.x() + chord, origin.x(), nx) + 1)]);
       }
     }
+  }
+  template <class F>
+  void for_candidates(const Eigen::Vector3d& q, double cut, F&& f) const {
+    for_candidates(q, q, cut, std::forward<F>(f));
   }
   // Squared distance from q to item `it`, as (x_j - x_i)^2 + (y_j - y_i)^2 + (z_j - z_i)^2:
   // the same bits for (i, j) and (j, i), since x_i - x_j = -(x_j - x_i) exactly, in both passes.

@@ -60,12 +60,16 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
     EXPECT_EQ(free.row_offset(), op.row_offset);
     EXPECT_EQ(free.part_t(), op.part_t);
     EXPECT_DOUBLE_EQ(free.t(), op.t);
-    const Eigen::MatrixXd x = block(op.rows(), 7);
-    Eigen::MatrixXd y;
-    free.apply_stiffness(x, y);
-    EXPECT_LE(product_error(op.A, x, y), 1e-14);
-    free.apply_laplacian(x, y);
-    EXPECT_LE(product_error(op.L, x, y), 1e-14);
+    // Every path of the products' kernel: unpadded (1, 7), padded to 8 (9), one pass of 32
+    // (30, LOBPCG's block of 20 eigenpairs), a pass of 32 and one of 8 (40).
+    for (Eigen::Index columns : {1, 7, 9, 30, 40}) {
+      const Eigen::MatrixXd x = block(op.rows(), columns);
+      Eigen::MatrixXd y;
+      free.apply_stiffness(x, y);
+      EXPECT_LE(product_error(op.A, x, y), 1e-14) << columns;
+      free.apply_laplacian(x, y);
+      EXPECT_LE(product_error(op.L, x, y), 1e-14) << columns;
+    }
     EXPECT_LE((free.stiffness_diagonal() - op.A.diagonal()).cwiseAbs().maxCoeff(), 1e-14 * op.A.diagonal().cwiseAbs().maxCoeff());
     EXPECT_LT(free.bytes(), 0.05 * heat_laplacian_bytes(static_cast<std::size_t>(op.A.nonZeros()), static_cast<std::size_t>(op.rows()), true));
   }
@@ -78,17 +82,19 @@ TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
   options.surface_kernel = kernel;
   const MatrixFreeSurfaceOperator free = on_threads(1, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
   const MatrixFreeSurfaceOperator built_on_two = on_threads(2, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
-  const Eigen::MatrixXd x = block(free.rows(), 5);
-  Eigen::MatrixXd other;
-  built_on_two.apply_stiffness(x, other);
-  Eigen::MatrixXd one, two;
-  omp_set_num_threads(1);
-  free.apply_stiffness(x, one);
-  omp_set_num_threads(2);
-  free.apply_stiffness(x, two);
-  ASSERT_EQ(one.size(), two.size());
-  EXPECT_EQ(std::memcmp(one.data(), two.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0);
-  EXPECT_EQ(std::memcmp(one.data(), other.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0);  // its factors too
+  for (Eigen::Index columns : {5, 30}) {  // unpadded and padded blocks
+    const Eigen::MatrixXd x = block(free.rows(), columns);
+    Eigen::MatrixXd other;
+    built_on_two.apply_stiffness(x, other);
+    Eigen::MatrixXd one, two;
+    omp_set_num_threads(1);
+    free.apply_stiffness(x, one);
+    omp_set_num_threads(2);
+    free.apply_stiffness(x, two);
+    ASSERT_EQ(one.size(), two.size());
+    EXPECT_EQ(std::memcmp(one.data(), two.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0) << columns;
+    EXPECT_EQ(std::memcmp(one.data(), other.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0) << columns;  // its factors too
+  }
   }
 }
 

@@ -10,8 +10,8 @@
 //
 // which is the assembled A x and L x up to rounding (1e-15 of |A| |x|: the same terms, the
 // diagonal -sum_j w_ij mu_j applied as one term, the factor mu_i applied last).
-// Rows are independent and summed in the grid's fixed order: the result does not depend on the
-// number of threads, bit for bit.
+// Rows go 4 at a time (neighbouring surfels sharing their neighbours' loads), each summed in a
+// fixed order: the result does not depend on the number of threads, bit for bit.
 #pragma once
 
 #include "digilap/core/bias_correction.hpp"
