@@ -1,6 +1,7 @@
 #include "lobpcg.hpp"
 
 #include "huge_pages.hpp"
+#include "tall_products.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
@@ -18,8 +19,8 @@ namespace {
 // products block their sums by the thread count, which changed the last bits of the Ritz
 // values, hence signs and rotations inside near-degenerate pairs (eigenvectors differed by up
 // to 0.69 between 1 and 2 threads). Here rows are cut into chunks of a fixed size, each
-// multiplied by Eigen on one thread (inside a parallel region Eigen does not spawn more), and
-// the partial sums added in chunk order.
+// multiplied on one thread (tall_products.hpp: vectorized for the CPU, where Eigen's products
+// are built for SSE2), and the partial sums added in chunk order.
 constexpr Eigen::Index kChunkRows = 2048;
 using ConstBlock = Eigen::Ref<const Eigen::MatrixXd>;
 
@@ -46,7 +47,7 @@ Eigen::MatrixXd sum_over_chunks(Eigen::Index n, Eigen::Index rows_out, Eigen::In
 // x^T y
 Eigen::MatrixXd gram(const ConstBlock& x, const ConstBlock& y) {
   return sum_over_chunks(x.rows(), x.cols(), y.cols(), [&](Eigen::Index first, Eigen::Index rows, Eigen::MatrixXd& out) {
-    out.noalias() = x.middleRows(first, rows).transpose() * y.middleRows(first, rows);
+    tall_gram(x.middleRows(first, rows), y.middleRows(first, rows), out);
   });
 }
 
@@ -59,8 +60,8 @@ Eigen::MatrixXd symmetric_gram(const ConstBlock& x, const ConstBlock& y, const s
     Eigen::Index begin = 0;
     for (const Eigen::Index end : ends) {
       if (end > begin)
-        out.block(0, begin, end, end - begin).noalias() =
-            x.middleRows(first, rows).leftCols(end).transpose() * y.middleRows(first, rows).middleCols(begin, end - begin);
+        tall_gram(x.middleRows(first, rows).leftCols(end), y.middleRows(first, rows).middleCols(begin, end - begin),
+                  out.block(0, begin, end, end - begin));
       begin = end;
     }
   });
@@ -82,7 +83,7 @@ void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < chunks; ++k) {
     const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
-    out.middleRows(first, rows).noalias() = x.middleRows(first, rows) * c;
+    tall_product(x.middleRows(first, rows), c, out.middleRows(first, rows), false);
   }
 }
 
@@ -92,7 +93,7 @@ void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < chunks; ++k) {
     const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, x.rows() - first);
-    out.middleRows(first, rows).noalias() -= x.middleRows(first, rows) * c;
+    tall_product(x.middleRows(first, rows), c, out.middleRows(first, rows), true);
   }
 }
 
@@ -107,7 +108,8 @@ void combine_in_place(Eigen::MatrixXd& m, const Eigen::MatrixXd& c, const Eigen:
 #pragma omp for schedule(static)
     for (Eigen::Index k = 0; k < chunks; ++k) {
       const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, m.rows() - first);
-      product.noalias() = m.middleRows(first, rows).leftCols(c.rows()) * c;
+      product.resize(rows, c.cols());
+      tall_product(m.middleRows(first, rows).leftCols(c.rows()), c, product, false);
       m.middleRows(first, rows).leftCols(c.cols()) = product + add.middleRows(first, rows);
     }
   }

@@ -1,6 +1,7 @@
 #include "digilap/surface/matrix_free.hpp"
 
 #include "digilap/core/error.hpp"
+#include "core/block_ldlt.hpp"
 #include "core/eigen_checks.hpp"
 #include "core/gaussian_kernel.hpp"
 #include "core/lobpcg.hpp"
@@ -9,7 +10,6 @@
 #include "intrinsic_kernel.hpp"
 #include "surfel_grid.hpp"
 
-#include <Eigen/SparseCholesky>
 
 #include <algorithm>
 #include <cstring>
@@ -472,22 +472,13 @@ public:
     }
     Eigen::SparseMatrix<double> k(n, n);
     k.setFromTriplets(entries.begin(), entries.end());
-    solver_.compute(k);
-    if (solver_.info() != Eigen::Success) throw Error("smallest_eigenpairs (matrix-free surfaces): the preconditioner's factorization failed");
+    if (!solver_.compute(k)) throw Error("smallest_eigenpairs (matrix-free surfaces): the preconditioner's factorization failed");
     root_mass_ = mass.cwiseSqrt();
   }
-  // The columns' solves are independent: a few columns per thread (Eigen's sparse triangular
-  // solves run on one), each column's bits the same however they are split.
+  // The solves 8 columns at a time over the threads (core/block_ldlt.hpp).
   void apply(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-    y.resize(x.rows(), x.cols());
-    constexpr Eigen::Index kColumns = 4;
-    const Eigen::Index chunks = (x.cols() + kColumns - 1) / kColumns;
-#pragma omp parallel for schedule(dynamic, 1)
-    for (Eigen::Index c = 0; c < chunks; ++c) {
-      const Eigen::Index first = c * kColumns, count = std::min(kColumns, x.cols() - first);
-      const Eigen::MatrixXd scaled = root_mass_.asDiagonal() * x.middleCols(first, count);
-      y.middleCols(first, count) = scale_ * (root_mass_.asDiagonal() * solver_.solve(scaled)) + t_ * x.middleCols(first, count);
-    }
+    solver_.solve(root_mass_.asDiagonal() * x, y);
+    y = scale_ * (root_mass_.asDiagonal() * y) + t_ * x;
   }
 
 private:
@@ -521,7 +512,7 @@ private:
     return count;
   }
 
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower> solver_;
+  digilap::detail::BlockLdlt solver_;
   Eigen::VectorXd root_mass_;
   double t_;
   double scale_;  // s above
