@@ -302,7 +302,7 @@ void for_each_tile(const Part& part, F&& f) {
             chord2[k] = w[r][k] = dx * dx + dy * dy + dz * dz;
           }
         }
-        gaussian_weights(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
+        gaussian_weights_wide(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
         sum[r] = masked_weights(w[r], chord2, buffer.mass.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
       }
       f(first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
@@ -326,7 +326,7 @@ void for_each_row(const Part& part, const Eigen::MatrixX3d& positions, bool in_g
     for (Eigen::Index i = 0; i < rows; ++i) {
       grid.gather_within(positions.row(first + i).transpose(), kernel.cut, found, in_grid_order, part.normal_of(i, normal));
       const auto count = static_cast<Eigen::Index>(found.size);
-      gaussian_weights(found.d2.data(), count, kernel.inv_4t, kernel.scale);
+      gaussian_weights_wide(found.d2.data(), count, kernel.inv_4t, kernel.scale);
       f(i, found.col.data(), found.d2.data(), count);  // the weights may be overwritten
     }
   }
