@@ -24,6 +24,8 @@ namespace digilap::surface {
 // 1.29 times a row's own neighbours with cells of half the cut, 1.38 with a quarter; a product
 // of 30 columns 0.168 s against 0.198 s).
 constexpr double kCellsPerCut = 2;
+// Rows a tile of the products (below).
+constexpr int kTileRows = 4;
 
 // One surface: its grid over its own centres (rows local to the surface) and its kernel. With
 // the intrinsic kernel, the grid holds the normals (in its item order, the queries' too), and
@@ -41,6 +43,8 @@ struct MatrixFreeSurfaceOperator::Part {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
     if (normals_)
       factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
+    for (std::size_t c = 0; c + 1 < grid.start.size(); ++c)
+      for (Eigen::Index it = grid.start[c]; it < grid.start[c + 1]; it += kTileRows) tile_first.push_back(it);
     slot.resize(static_cast<std::size_t>(rows));
     mass_in_grid.resize(rows);
     row_scale.resize(rows);
@@ -50,6 +54,15 @@ struct MatrixFreeSurfaceOperator::Part {
       mass_in_grid[static_cast<Eigen::Index>(it)] = normals_ ? mass[first + r] * factor[r] : mass[first + r];
       row_scale[static_cast<Eigen::Index>(it)] = factor[r];
     }
+  }
+  // The products' tiles: up to kTileRows consecutive items of one grid cell each (a tile across
+  // two cells could join the end of a row of cells to the start of the next, far apart: a
+  // sphere at h = 0.01 had tiles of 60,000 candidates).
+  std::vector<Eigen::Index> tile_first;
+  Eigen::Index tile_end(Eigen::Index tile) const {
+    const auto t = static_cast<std::size_t>(tile);
+    const Eigen::Index next = t + 1 < tile_first.size() ? tile_first[t + 1] : rows;
+    return std::min(next, tile_first[t] + kTileRows);
   }
   bool intrinsic() const { return !grid.nxs.empty(); }
   // The query normal of local row i (null for the chord).
@@ -70,14 +83,13 @@ namespace {
 // builds).
 typedef double Lanes8 __attribute__((vector_size(64)));
 
-// The products' rows go R = 4 at a time (a tile: consecutive grid items, in Morton order within
-// a cell, so a few h apart), over candidates that hold all their neighbours: each candidate's
+// The products' rows go R = 4 at a time (a tile: consecutive items of one grid cell, in Morton order
+// there, so a few h apart), over candidates that hold all their neighbours: each candidate's
 // values are then loaded once for 4 rows instead of once a row (with one row at a time, the
 // loads of the neighbours' values, 256 bytes each for 32 columns, bounded the loop), and its
 // position once for 4 rows' distances. A row's weight is 0 at the candidates outside its own
 // cut. Every row's sums run in a fixed order (the candidates' order, in lanes of 8 added in a
 // fixed order), whatever the thread that computes them.
-constexpr int kTileRows = 4;
 
 // An unaligned view of 8 doubles (a neighbour's values need not start on 64 bytes).
 typedef double Lanes8u __attribute__((vector_size(64), aligned(8)));
@@ -206,24 +218,15 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) st
 
 // The kept candidates' coordinates, normals (intrinsic kernel) and measures, contiguous.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void gather_candidates(
-    const detail::Grid& grid, const double* __restrict mass, bool normals, std::size_t count, TileBuffer& buffer) {
+    const detail::Grid& grid, const double* mass, bool normals, std::size_t count, TileBuffer& buffer) {
   const int* __restrict col = buffer.col.data();
-  double* __restrict x = buffer.x.data();
-  double* __restrict y = buffer.y.data();
-  double* __restrict z = buffer.z.data();
-  double* __restrict m = buffer.mass.data();
-  const double* __restrict xs = grid.xs.data();
-  const double* __restrict ys = grid.ys.data();
-  const double* __restrict zs = grid.zs.data();
-  for (std::size_t k = 0; k < count; ++k) x[k] = xs[col[k]], y[k] = ys[col[k]], z[k] = zs[col[k]], m[k] = mass[col[k]];
-  if (!normals) return;
-  double* __restrict nx = buffer.nx.data();
-  double* __restrict ny = buffer.ny.data();
-  double* __restrict nz = buffer.nz.data();
-  const double* __restrict nxs = grid.nxs.data();
-  const double* __restrict nys = grid.nys.data();
-  const double* __restrict nzs = grid.nzs.data();
-  for (std::size_t k = 0; k < count; ++k) nx[k] = nxs[col[k]], ny[k] = nys[col[k]], nz[k] = nzs[col[k]];
+  auto gather = [&](const double* __restrict from, std::vector<double>& to) {
+    double* __restrict out = to.data();
+    for (std::size_t k = 0; k < count; ++k) out[k] = from[col[k]];
+  };
+  gather(grid.xs.data(), buffer.x), gather(grid.ys.data(), buffer.y), gather(grid.zs.data(), buffer.z);
+  gather(mass, buffer.mass);
+  if (normals) gather(grid.nxs.data(), buffer.nx), gather(grid.nys.data(), buffer.ny), gather(grid.nzs.data(), buffer.nz);
 }
 
 // A row's weights on the tile's candidates: w_k mu_k where its chord is within the cut and k is
@@ -259,15 +262,15 @@ void for_each_tile(const Part& part, F&& f) {
   const detail::Grid& grid = part.grid;
   const detail::Kernel& kernel = part.kernel;
   const double cut2 = kernel.cut * kernel.cut;
-  const Eigen::Index tiles = (part.rows + kTileRows - 1) / kTileRows;
+  const auto tiles = static_cast<Eigen::Index>(part.tile_first.size());
   const bool intrinsic = part.intrinsic();
 #pragma omp parallel
   {
     TileBuffer buffer;  // this thread's
 #pragma omp for schedule(dynamic, 16)
     for (Eigen::Index tile = 0; tile < tiles; ++tile) {
-      const Eigen::Index first = tile * kTileRows;
-      const int rows = static_cast<int>(std::min<Eigen::Index>(kTileRows, part.rows - first));
+      const Eigen::Index first = part.tile_first[static_cast<std::size_t>(tile)];
+      const int rows = static_cast<int>(part.tile_end(tile) - first);
       Eigen::Vector3d lo, hi;
       for (int r = 0; r < rows; ++r) {
         const auto it = static_cast<std::size_t>(first + r);
