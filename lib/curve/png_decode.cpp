@@ -56,12 +56,19 @@ void check_png_chunks_fit(const std::uint8_t* data, std::size_t size, const std:
 
 }  // namespace
 
+// stb's reason for a failure, which can be null (a decoder that failed without saying why: a
+// fuzzed PNG made std::string + null crash).
+static std::string failure_reason() {
+  const char* reason = stbi_failure_reason();
+  return reason ? reason : "no reason given";
+}
+
 GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::string& name, const ImageLimits& limits) {
   if (size > static_cast<std::size_t>(INT32_MAX)) throw Error(name + ": file too large");
   int w = 0, h = 0, channels = 0;
   const auto len = static_cast<int>(size);
   if (size >= 8) check_png_chunks_fit(data, size, name);  // shorter: stbi_info refuses it below
-  if (!stbi_info_from_memory(data, len, &w, &h, &channels)) throw Error(name + ": " + std::string("not a readable PNG (") + stbi_failure_reason() + ")");
+  if (!stbi_info_from_memory(data, len, &w, &h, &channels)) throw Error(name + ": " + "not a readable PNG (" + failure_reason() + ")");
   check_image_size(w, h, name, limits);  // before decoding: the decoder allocates w * h * channels
   const bool sixteen = stbi_is_16_bit_from_memory(data, len);
   GrayImage image;
@@ -70,7 +77,7 @@ GrayImage decode_png(const std::uint8_t* data, std::size_t size, const std::stri
   image.maxval = sixteen ? 65535 : 255;
   image.pixels.resize(static_cast<std::size_t>(w) * h);
   auto convert = [&](auto* px) {
-    if (!px) throw Error(name + ": " + std::string("cannot decode the PNG (") + stbi_failure_reason() + ")");
+    if (!px) throw Error(name + ": " + "cannot decode the PNG (" + failure_reason() + ")");
     const double top = image.maxval;
     for (std::size_t k = 0; k < image.pixels.size(); ++k) {
       const auto* p = px + k * channels;

@@ -174,3 +174,15 @@ TEST(Image, EveryFuzzSeedDecodesOrIsRefusedClearly) {
   EXPECT_GE(decoded, 6);
   EXPECT_GE(decoded + refused, 8);
 }
+
+TEST(Image, PngThatStbRejectsWithoutAReasonIsAnError) {
+  // Found by fuzz_image: stb failed on this PNG with a null reason, and the message was built
+  // from it (a crash). It must be a digilap::Error naming the file.
+  const unsigned char png[] = {137, 80, 78, 71, 13, 10, 26, 10, 0, 0, 0, 13, 73, 72, 68, 82, 0, 0, 0, 8, 0, 0, 0, 8, 8, 0, 0, 0, 0, 225, 100, 225, 87, 0, 0, 0, 25, 73, 68, 65, 84, 120, 156, 167, 7, 240, 250, 12, 64, 4, 4, 32, 6, 3, 24, 224, 103, 192, 21, 67, 1, 0, 124, 4, 31, 225, 142, 128, 54, 61, 0, 0, 0, 0, 73, 69, 78, 68, 174, 66, 96, 130};
+  try {
+    decode_image(png, sizeof(png), "fuzzed.png");
+    FAIL() << "decoded";
+  } catch (const digilap::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("fuzzed.png"), std::string::npos) << e.what();
+  }
+}
