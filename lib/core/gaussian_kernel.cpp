@@ -36,14 +36,13 @@ void weights_of_chunk_wide(double* chunk, double inv_4t, double scale) {
   for (int k = 0; k < kChunk; ++k) chunk[k] = scale * std::exp(-chunk[k] * inv_4t);
 }
 
-template <void (*Chunk)(double*, double, double)>
 void weights_by_chunks(double* values, Eigen::Index count, double inv_4t, double scale) {
   alignas(64) double chunk[kChunk];
   for (Eigen::Index first = 0; first < count; first += kChunk) {
     const int used = static_cast<int>(std::min<Eigen::Index>(kChunk, count - first));
     std::copy(values + first, values + first + used, chunk);
     std::fill(chunk + used, chunk + kChunk, 0.0);
-    Chunk(chunk, inv_4t, scale);
+    weights_of_chunk(chunk, inv_4t, scale);
     std::copy(chunk, chunk + used, values + first);
   }
 }
@@ -55,11 +54,13 @@ void weights_by_chunks(double* values, Eigen::Index count, double inv_4t, double
 // bit differs, and A = M L would then not be symmetric bit for bit (the weight of a distance
 // would depend on where the pair sits in each of its two rows).
 void gaussian_weights(double* values, Eigen::Index count, double inv_4t, double scale) {
-  weights_by_chunks<weights_of_chunk>(values, count, inv_4t, scale);
+  weights_by_chunks(values, count, inv_4t, scale);
 }
 
 void gaussian_weights_wide(double* values, Eigen::Index count, double inv_4t, double scale) {
-  weights_by_chunks<weights_of_chunk_wide>(values, count, inv_4t, scale);
+  const Eigen::Index room = gaussian_weights_room(count);
+  std::fill(values + count, values + room, 0.0);  // finite, whatever was there
+  for (Eigen::Index first = 0; first < room; first += kChunk) weights_of_chunk_wide(values + first, inv_4t, scale);
 }
 
 }  // namespace digilap

@@ -300,10 +300,10 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
     for (std::size_t c = 0; c < surfaces; ++c) surfels_of[c] = static_cast<std::size_t>(out.surface_size[c]);
     std::vector<double> per_surface;
     for (int round = 0; round < surface::detail::kLengthRounds; ++round) {
-      const double rho = surface::detail::length_ball_radius(k_R, l_voxels, largest_size);
+      const surface::detail::BallRows ball(surface::detail::length_ball_radius(k_R, l_voxels, largest_size));
       std::vector<double> radius(sampled.size());
 #pragma omp parallel for schedule(dynamic, 64)
-      for (std::size_t q = 0; q < sampled.size(); ++q) radius[q] = surface::detail::ii_radius_of_curvature(slab, st.owned[sampled[q]], rho);
+      for (std::size_t q = 0; q < sampled.size(); ++q) radius[q] = surface::detail::ii_radius_of_curvature(slab, st.owned[sampled[q]], ball);
       l_voxels = surface::detail::length_round(all_gather(ranks, radius), surface_of, size, surfels_of, o.length_quantile, per_surface);
     }
     l = l_voxels * h;

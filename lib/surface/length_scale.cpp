@@ -38,9 +38,9 @@ double length_ball_radius(double k_R, double l, double largest) {
   return std::min(k_R * std::pow(l, 2.0 / 3.0), std::max(largest, 1.0));
 }
 
-double ii_radius_of_curvature(const VoxelSet& set, const Surfel& f, double rho) {
-  const auto c = doubled_centre(f);
-  const double volume = static_cast<double>(ball_moments(set, c[0], c[1], c[2], rho).n);
+double ii_radius_of_curvature(const VoxelSet& set, const Surfel& f, const BallRows& ball) {
+  const double rho = ball.radius();
+  const double volume = static_cast<double>(ball.count(set, f));
   // II mean curvature [Pottmann et al. 2007]: a flat boundary fills half the ball.
   const double H = 8 / (3 * rho) - 4 * volume / (kPi * rho * rho * rho * rho);
   return H != 0 ? 1 / std::abs(H) : INFINITY;
@@ -115,9 +115,9 @@ LengthScale length_scale(const VoxelSet& set, const SurfelSet& surfels, const Le
   double l = std::max(detail::kLengthFloorVoxels, largest);
   std::vector<double> radius(sampled.size()), per_surface;
   for (int round = 0; round < detail::kLengthRounds; ++round) {
-    const double rho = detail::length_ball_radius(o.k_R, l, largest);
+    const detail::BallRows ball(detail::length_ball_radius(o.k_R, l, largest));
 #pragma omp parallel for schedule(dynamic, 64)
-    for (std::size_t q = 0; q < sampled.size(); ++q) radius[q] = detail::ii_radius_of_curvature(set, surfels.surfels[sampled[q]], rho);
+    for (std::size_t q = 0; q < sampled.size(); ++q) radius[q] = detail::ii_radius_of_curvature(set, surfels.surfels[sampled[q]], ball);
     l = detail::length_round(radius, surface_of, size, counts, o.quantile, per_surface);
     for (std::size_t c = 0; c < surfaces; ++c) out.per_contour[c] = per_surface[c] * h;
   }

@@ -6,6 +6,7 @@
 
 #include "digilap/surface/digitization.hpp"
 #include "digilap/surface/surfels.hpp"
+#include "ball_moments.hpp"
 
 #include <array>
 #include <cstdint>
@@ -25,8 +26,8 @@ bool sampled_for_length(const Surfel& f, std::size_t n, const std::array<std::in
 double equal_volume_radius(std::int64_t twice_enclosed_voxels);
 /// The ball radius (voxels) of a round from the previous l (voxels) and the largest surface's size.
 double length_ball_radius(double k_R, double l, double largest);
-/// 1 / |H| (voxels) at surfel f from the II mean curvature in the ball of radius rho.
-double ii_radius_of_curvature(const VoxelSet& set, const Surfel& f, double rho);
+/// 1 / |H| (voxels) at surfel f from the II mean curvature in the ball (its rows, BallRows).
+double ii_radius_of_curvature(const VoxelSet& set, const Surfel& f, const BallRows& ball);
 /// One round: sample q has radius[q] and lies on surface surface_of[q]; size[c] and surfels[c]
 /// are each surface's size bound (voxels) and surfel count. Writes l_c (voxels, 0 for a surface
 /// without samples) into per_surface and returns l (voxels), the weighted median. Independent of

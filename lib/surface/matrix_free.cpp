@@ -12,6 +12,7 @@
 
 
 #include <algorithm>
+#include <cstdint>
 #include <cstring>
 #include <cmath>
 #include <sstream>
@@ -34,7 +35,6 @@ struct MatrixFreeSurfaceOperator::Part {
   Eigen::Index first = 0, rows = 0;
   detail::Grid grid;
   detail::Kernel kernel;
-  std::vector<int> slot;           // row -> its position in the grid's item order
   Eigen::VectorXd mass_in_grid;    // the weights' measures in that order
   Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
   Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
@@ -45,12 +45,10 @@ struct MatrixFreeSurfaceOperator::Part {
       factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
     for (std::size_t c = 0; c + 1 < grid.start.size(); ++c)
       for (Eigen::Index it = grid.start[c]; it < grid.start[c + 1]; it += kTileRows) tile_first.push_back(it);
-    slot.resize(static_cast<std::size_t>(rows));
     mass_in_grid.resize(rows);
     row_scale.resize(rows);
     for (std::size_t it = 0; it < grid.items.size(); ++it) {
       const Eigen::Index r = grid.items[it];
-      slot[static_cast<std::size_t>(r)] = static_cast<int>(it);
       mass_in_grid[static_cast<Eigen::Index>(it)] = normals_ ? mass[first + r] * factor[r] : mass[first + r];
       row_scale[static_cast<Eigen::Index>(it)] = factor[r];
     }
@@ -65,13 +63,6 @@ struct MatrixFreeSurfaceOperator::Part {
     return std::min(next, tile_first[t] + kTileRows);
   }
   bool intrinsic() const { return !grid.nxs.empty(); }
-  // The query normal of local row i (null for the chord).
-  const Eigen::Vector3d* normal_of(Eigen::Index i, Eigen::Vector3d& buffer) const {
-    if (!intrinsic()) return nullptr;
-    const auto at = static_cast<std::size_t>(slot[static_cast<std::size_t>(i)]);
-    buffer = Eigen::Vector3d(grid.nxs[at], grid.nys[at], grid.nzs[at]);
-    return &buffer;
-  }
 };
 
 MatrixFreeSurfaceOperator::~MatrixFreeSurfaceOperator() = default;
@@ -182,12 +173,28 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   }
 }
 
+// A row's weights: 64-byte aligned, with room for gaussian_weights_wide's padding.
+class WeightRow {
+public:
+  void resize(std::size_t n) {
+    storage_.resize(static_cast<std::size_t>(gaussian_weights_room(static_cast<Eigen::Index>(n))) + 8);
+    const auto address = reinterpret_cast<std::uintptr_t>(storage_.data());
+    data_ = storage_.data() + ((64 - address % 64) % 64) / sizeof(double);
+  }
+  double* data() { return data_; }
+
+private:
+  std::vector<double> storage_;
+  double* data_ = nullptr;
+};
+
 // One thread's buffers for a tile: the candidates near the tile (grid positions, coordinates,
 // normals, measures), then each row's squared distances to them (chord and kernel) and weights.
 struct TileBuffer {
   std::vector<int> col;
   std::vector<double> x, y, z, nx, ny, nz, mass;
-  std::vector<double> chord2[kTileRows], d2[kTileRows];
+  std::vector<double> chord2[kTileRows];
+  WeightRow d2[kTileRows];
   void reserve(std::size_t n) {
     if (col.size() >= n) return;
     n *= 2;
@@ -313,27 +320,6 @@ void for_each_tile(const Part& part, F&& f) {
   }
 }
 
-// For each row i of a part, f(i, cols, weights, count): its neighbours within the cut (i itself
-// included, at distance 0) as part-local columns and kernel weights, in the grid's fixed order.
-// Distances from the part's kernel: the chord, or the intrinsic one with the part's normals.
-template <class Part, class F>
-void for_each_row(const Part& part, const Eigen::MatrixX3d& positions, bool in_grid_order, F&& f) {
-  const detail::Grid& grid = part.grid;
-  const detail::Kernel& kernel = part.kernel;
-  const Eigen::Index first = part.first, rows = part.rows;
-#pragma omp parallel
-  {
-    detail::RowBuffer found;  // this thread's
-    Eigen::Vector3d normal;
-#pragma omp for schedule(dynamic, 64)
-    for (Eigen::Index i = 0; i < rows; ++i) {
-      grid.gather_within(positions.row(first + i).transpose(), kernel.cut, found, in_grid_order, part.normal_of(i, normal));
-      const auto count = static_cast<Eigen::Index>(found.size);
-      gaussian_weights_wide(found.d2.data(), count, kernel.inv_4t, kernel.scale);
-      f(i, found.col.data(), found.d2.data(), count);  // the weights may be overwritten
-    }
-  }
-}
 }  // namespace
 
 MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, const SurfelMeasures& measures,
@@ -358,13 +344,14 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
     const Eigen::MatrixX3d normals = intrinsic ? Eigen::MatrixX3d(measures.normals.middleRows(first, rows)) : Eigen::MatrixX3d();
     part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
     const Part& part = *part_.back();
-    for_each_row(part, positions, true, [&](Eigen::Index i, const int* col, double* w, Eigen::Index count) {
-      const int self = part.slot[static_cast<std::size_t>(i)];
-      double sum = 0;
-      for (Eigen::Index k = 0; k < count; ++k)
-        if (col[k] != self) sum += w[k] * part.mass_in_grid[col[k]];
-      l_row_sums_[first + i] = part.row_scale[self] * sum;
-      a_diagonal_[first + i] = -part.mass_in_grid[self] * sum;
+    // The diagonal and row sums from the products' own tiles and sums (the same bits as the
+    // diagonal term of a product; faster than a row at a time).
+    for_each_tile(part, [&](Eigen::Index tile_first, int tile_rows, const int*, const double* const*, const double* sum, Eigen::Index) {
+      for (int r = 0; r < tile_rows; ++r) {
+        const Eigen::Index it = tile_first + r, i = first + part.grid.items[static_cast<std::size_t>(it)];
+        l_row_sums_[i] = part.row_scale[it] * sum[r];
+        a_diagonal_[i] = -part.mass_in_grid[it] * sum[r];
+      }
     });
   }
   positions_ = positions;

@@ -15,7 +15,7 @@
 namespace digilap::surface {
 
 namespace {
-using detail::ball_moments;
+using detail::BallRows;
 using detail::doubled_centre;
 using detail::Moments;
 using digilap::detail::floor_half;
@@ -56,6 +56,7 @@ void set_length_scale(const char* who, const VoxelSet& set, const SurfelSet& sur
 namespace detail {
 Eigen::MatrixX3d ii_normals_at(const VoxelSet& set, const SurfelSet& surfels, double rho) {
   Eigen::MatrixX3d normals(static_cast<Eigen::Index>(surfels.size()), 3);
+  const BallRows ball(rho);
 #pragma omp parallel for schedule(dynamic, 256)
   for (std::size_t s = 0; s < surfels.size(); ++s) {
     const Surfel& f = surfels.surfels[s];
@@ -64,7 +65,7 @@ Eigen::MatrixX3d ii_normals_at(const VoxelSet& set, const SurfelSet& surfels, do
                                  0.5 * static_cast<double>(c[1]) - static_cast<double>(floor_half(c[1])),
                                  0.5 * static_cast<double>(c[2]) - static_cast<double>(floor_half(c[2])));
     normals.row(static_cast<Eigen::Index>(s)) =
-        covariance_normal(ball_moments(set, c[0], c[1], c[2], rho), offset, surfels.trivial_normal(s)).transpose();
+        covariance_normal(ball.moments(set, f), offset, surfels.trivial_normal(s)).transpose();
   }
   return normals;
 }
