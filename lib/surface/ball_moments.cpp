@@ -29,22 +29,14 @@ void for_ball_rows(std::int64_t X, std::int64_t Y, std::int64_t Z, double rho, c
   }
 }
 
-// Adds to mo the moments of the set's voxels lo ... hi of row (j, k), relative to (i0, j0, k0).
-// Each row meets the set in a few runs, whose x-moments have closed forms.
-void add_row(const VoxelSet& set, std::int64_t j, std::int64_t k, std::int64_t lo, std::int64_t hi, std::int64_t i0,
-             std::int64_t j0, std::int64_t k0, Moments& mo) {
+// Calls part(a, c) for each run of the set's voxels a ... c (a <= c) within lo ... hi of row (j, k).
+template <typename RunFunction>
+void for_runs_in_row(const VoxelSet& set, std::int64_t j, std::int64_t k, std::int64_t lo, std::int64_t hi, const RunFunction& part) {
   const Run* b = set.row_runs_begin(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
   const Run* e = set.row_runs_end(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
-  const Run* r = std::upper_bound(b, e, lo, [](std::int64_t v, const Run& run) { return v < run.end; });
-  const std::int64_t dj = j - j0, dk = k - k0;
-  for (; r != e && r->begin <= hi; ++r) {
-    const std::int64_t a = std::max<std::int64_t>(lo, r->begin) - i0, c = std::min<std::int64_t>(hi, r->end - 1) - i0;
-    if (c < a) continue;
-    const std::int64_t count = c - a + 1, sx = (a + c) * count / 2, sxx = sum_squares(c) - sum_squares(a - 1);
-    mo.n += count;
-    mo.s[0] += sx, mo.s[1] += dj * count, mo.s[2] += dk * count;
-    mo.ss[0][0] += sxx, mo.ss[1][1] += dj * dj * count, mo.ss[2][2] += dk * dk * count;
-    mo.ss[0][1] += dj * sx, mo.ss[0][2] += dk * sx, mo.ss[1][2] += dj * dk * count;
+  for (const Run* r = std::upper_bound(b, e, lo, [](std::int64_t v, const Run& run) { return v < run.end; }); r != e && r->begin <= hi; ++r) {
+    const std::int64_t a = std::max<std::int64_t>(lo, r->begin), c = std::min<std::int64_t>(hi, r->end - 1);
+    if (a <= c) part(a, c);
   }
 }
 
@@ -73,10 +65,20 @@ void BallRows::for_rows(const Surfel& f, const RowFunction& row) const {
     row(base[1] + r.dj, base[2] + r.dk, base[0] + r.lo, base[0] + r.hi, base);
 }
 
+// Each row meets the set in a few runs, whose moments have closed forms (relative to the base
+// voxel).
 Moments BallRows::moments(const VoxelSet& set, const Surfel& f) const {
   Moments mo;
   for_rows(f, [&](std::int64_t j, std::int64_t k, std::int64_t lo, std::int64_t hi, const std::int64_t* base) {
-    add_row(set, j, k, lo, hi, base[0], base[1], base[2], mo);
+    const std::int64_t dj = j - base[1], dk = k - base[2];
+    for_runs_in_row(set, j, k, lo, hi, [&](std::int64_t first, std::int64_t last) {
+      const std::int64_t a = first - base[0], c = last - base[0];
+      const std::int64_t count = c - a + 1, sx = (a + c) * count / 2, sxx = sum_squares(c) - sum_squares(a - 1);
+      mo.n += count;
+      mo.s[0] += sx, mo.s[1] += dj * count, mo.s[2] += dk * count;
+      mo.ss[0][0] += sxx, mo.ss[1][1] += dj * dj * count, mo.ss[2][2] += dk * dk * count;
+      mo.ss[0][1] += dj * sx, mo.ss[0][2] += dk * sx, mo.ss[1][2] += dj * dk * count;
+    });
   });
   return mo;
 }
@@ -84,21 +86,9 @@ Moments BallRows::moments(const VoxelSet& set, const Surfel& f) const {
 std::int64_t BallRows::count(const VoxelSet& set, const Surfel& f) const {
   std::int64_t n = 0;
   for_rows(f, [&](std::int64_t j, std::int64_t k, std::int64_t lo, std::int64_t hi, const std::int64_t*) {
-    const Run* b = set.row_runs_begin(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
-    const Run* e = set.row_runs_end(static_cast<std::int32_t>(j), static_cast<std::int32_t>(k));
-    for (const Run* r = std::upper_bound(b, e, lo, [](std::int64_t v, const Run& run) { return v < run.end; }); r != e && r->begin <= hi; ++r)
-      n += std::max<std::int64_t>(0, std::min<std::int64_t>(hi, r->end - 1) - std::max<std::int64_t>(lo, r->begin) + 1);
+    for_runs_in_row(set, j, k, lo, hi, [&](std::int64_t first, std::int64_t last) { n += last - first + 1; });
   });
   return n;
-}
-
-Moments ball_moments(const VoxelSet& set, std::int64_t X, std::int64_t Y, std::int64_t Z, double rho) {
-  const std::int64_t i0 = floor_half(X), j0 = floor_half(Y), k0 = floor_half(Z);
-  Moments mo;
-  for_ball_rows(X, Y, Z, rho, [&](std::int64_t j, std::int64_t k, std::int64_t lo, std::int64_t hi) {
-    add_row(set, j, k, lo, hi, i0, j0, k0, mo);
-  });
-  return mo;
 }
 
 // Doubled coordinates of a surfel's centre.

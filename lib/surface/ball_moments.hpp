@@ -23,13 +23,13 @@ struct Moments {
 /// surfels: each row's extent (an integer square root) was 45% of the II normals' time when
 /// every ball recomputed it. A surfel's centre is a voxel centre moved by half a voxel along
 /// the surfel's axis, so the ball's rows relative to that voxel depend only on the axis: three
-/// tables of about pi rho^2 rows (16 bytes each; rho is at most the largest surface's radius).
+/// tables of about pi rho^2 rows, 16 bytes each (ii_normals refuses a ball wider than twice the set).
 class BallRows {
 public:
   explicit BallRows(double rho);
   double radius() const { return rho_; }
-  /// The moments of the set's voxel centres in the ball around f's centre; the same integers
-  /// as ball_moments(set, doubled_centre(f), rho).
+  /// The moments of the set's voxel centres in the ball around f's centre (doubled_centre(f) / 2),
+  /// relative to the voxel floor(doubled_centre(f) / 2).
   Moments moments(const VoxelSet& set, const Surfel& f) const;
   /// Their count alone (the II mean curvature's volume): moments(set, f).n.
   std::int64_t count(const VoxelSet& set, const Surfel& f) const;
@@ -44,10 +44,6 @@ private:
   double rho_;
   std::array<std::vector<Row>, 3> rows_;  // by the surfel's axis
 };
-
-/// The ball of radius rho (voxels) around (X, Y, Z) / 2 (doubled coordinates: surfel centres are
-/// integers there).
-Moments ball_moments(const VoxelSet& set, std::int64_t X, std::int64_t Y, std::int64_t Z, double rho);
 
 /// Doubled coordinates of a surfel's centre.
 Eigen::Matrix<std::int64_t, 3, 1> doubled_centre(const Surfel& f);
