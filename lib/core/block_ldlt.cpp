@@ -36,6 +36,7 @@ bool BlockLdlt::compute(const Eigen::SparseMatrix<double>& lower) {
   const Eigen::Index n = l.cols();
   start_.assign(static_cast<std::size_t>(n + 1), 0);
   row_.clear(), value_.clear();
+  row_.reserve(static_cast<std::size_t>(l.nonZeros())), value_.reserve(static_cast<std::size_t>(l.nonZeros()));  // 1e6 at N = 36,000
   for (Eigen::Index j = 0; j < n; ++j) {
     for (Eigen::SparseMatrix<double>::InnerIterator it(l, j); it; ++it)
       if (it.row() > j) row_.push_back(static_cast<int>(it.row())), value_.push_back(it.value());  // L is unit lower

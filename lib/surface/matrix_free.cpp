@@ -9,6 +9,7 @@
 #include "core/union_find.hpp"
 #include "intrinsic_kernel.hpp"
 #include "surfel_grid.hpp"
+#include "surfel_tiles.hpp"
 
 
 #include <algorithm>
@@ -25,8 +26,6 @@ namespace digilap::surface {
 // row's own neighbours, 1.38 with cells of a quarter of the cut; a product of 30 columns
 // 0.168 s against 0.198 s).
 constexpr double kCellsPerCut = 2;
-// Rows a tile of the products (below).
-constexpr int kTileRows = 4;
 
 // One surface: its grid over its own centres (rows local to the surface) and its kernel. With
 // the intrinsic kernel, the grid holds the normals (in its item order, the queries' too), and
@@ -43,8 +42,6 @@ struct MatrixFreeSurfaceOperator::Part {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
     if (normals_)
       factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
-    for (std::size_t c = 0; c + 1 < grid.start.size(); ++c)
-      for (Eigen::Index it = grid.start[c]; it < grid.start[c + 1]; it += kTileRows) tile_first.push_back(it);
     mass_in_grid.resize(rows);
     row_scale.resize(rows);
     for (std::size_t it = 0; it < grid.items.size(); ++it) {
@@ -53,15 +50,8 @@ struct MatrixFreeSurfaceOperator::Part {
       row_scale[static_cast<Eigen::Index>(it)] = factor[r];
     }
   }
-  // The products' tiles: up to kTileRows consecutive items of one grid cell each (a tile across
-  // two cells could join the end of a row of cells to the start of the next, far apart: a
-  // sphere at h = 0.01 had tiles of 60,000 candidates).
-  std::vector<Eigen::Index> tile_first;
-  Eigen::Index tile_end(Eigen::Index tile) const {
-    const auto t = static_cast<std::size_t>(tile);
-    const Eigen::Index next = t + 1 < tile_first.size() ? tile_first[t + 1] : rows;
-    return std::min(next, tile_first[t] + kTileRows);
-  }
+  // The products' tiles (surfel_tiles.hpp).
+  detail::Tiles tiles{grid};
   bool intrinsic() const { return !grid.nxs.empty(); }
 };
 
@@ -173,69 +163,6 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   }
 }
 
-// A row's weights: 64-byte aligned, with room for gaussian_weights_wide's padding.
-class WeightRow {
-public:
-  void resize(std::size_t n) {
-    storage_.resize(static_cast<std::size_t>(gaussian_weights_room(static_cast<Eigen::Index>(n))) + 8);
-    const auto address = reinterpret_cast<std::uintptr_t>(storage_.data());
-    data_ = storage_.data() + ((64 - address % 64) % 64) / sizeof(double);
-  }
-  double* data() { return data_; }
-
-private:
-  std::vector<double> storage_;
-  double* data_ = nullptr;
-};
-
-// One thread's buffers for a tile: the candidates near the tile (grid positions, coordinates,
-// normals, measures), then each row's squared distances to them (chord and kernel) and weights.
-struct TileBuffer {
-  std::vector<int> col;
-  std::vector<double> x, y, z, nx, ny, nz, mass;
-  std::vector<double> chord2[kTileRows];
-  WeightRow d2[kTileRows];
-  void reserve(std::size_t n) {
-    if (col.size() >= n) return;
-    n *= 2;
-    col.resize(n), x.resize(n), y.resize(n), z.resize(n), nx.resize(n), ny.resize(n), nz.resize(n), mass.resize(n);
-    for (int r = 0; r < kTileRows; ++r) chord2[r].resize(n), d2[r].resize(n);
-  }
-};
-
-// The grid items of [begin, end) within `reach2` (squared) of `centre`, appended to `col` from
-// `count` on; returns the new count. Their distances first, in a loop that vectorizes; then a
-// branch-free compaction of indices alone (copying each candidate's coordinates in the same
-// loop made every store wait on the previous comparison).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) std::size_t near_items(
-    const double* __restrict xs, const double* __restrict ys, const double* __restrict zs, std::size_t begin, std::size_t end,
-    const double* centre, double reach2, double* __restrict distance2, int* __restrict col, std::size_t count) {
-  const double cx = centre[0], cy = centre[1], cz = centre[2];
-  const std::size_t n = end - begin;
-  for (std::size_t k = 0; k < n; ++k) {
-    const double dx = xs[begin + k] - cx, dy = ys[begin + k] - cy, dz = zs[begin + k] - cz;
-    distance2[k] = dx * dx + dy * dy + dz * dz;
-  }
-  for (std::size_t k = 0; k < n; ++k) {
-    col[count] = static_cast<int>(begin + k);
-    count += distance2[k] <= reach2;
-  }
-  return count;
-}
-
-// The kept candidates' coordinates, normals (intrinsic kernel) and measures, contiguous.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void gather_candidates(
-    const detail::Grid& grid, const double* mass, bool normals, std::size_t count, TileBuffer& buffer) {
-  const int* __restrict col = buffer.col.data();
-  auto gather = [&](const double* __restrict from, std::vector<double>& to) {
-    double* __restrict out = to.data();
-    for (std::size_t k = 0; k < count; ++k) out[k] = from[col[k]];
-  };
-  gather(grid.xs.data(), buffer.x), gather(grid.ys.data(), buffer.y), gather(grid.zs.data(), buffer.z);
-  gather(mass, buffer.mass);
-  if (normals) gather(grid.nxs.data(), buffer.nx), gather(grid.nys.data(), buffer.ny), gather(grid.nzs.data(), buffer.nz);
-}
-
 // A row's weights on the tile's candidates: w_k mu_k where its chord is within the cut and k is
 // not the row itself, 0 elsewhere; returns their sum (8 partial sums, then added in a fixed
 // order: the same bits whatever the thread).
@@ -261,7 +188,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) do
 // the cut (as grid positions, in the grid's order), each row's weights w[r][k] = w_ik mu_k on
 // them (0 outside the row's cut and on its own column) and their sums: the terms the assembled
 // row holds. The candidates are the grid's within the cut plus the tile's radius of its centre
-// (one chord each), so that the kernel's distances (the intrinsic one: 20 operations) and the
+// (surfel_tiles.hpp), so that the kernel's distances (the intrinsic one: 20 operations) and the
 // Gaussians are computed for few more than the neighbours (a torus at h = 0.025: the grid's
 // cells offered 1.5 times the tile's neighbours).
 template <class Part, class F>
@@ -269,34 +196,17 @@ void for_each_tile(const Part& part, F&& f) {
   const detail::Grid& grid = part.grid;
   const detail::Kernel& kernel = part.kernel;
   const double cut2 = kernel.cut * kernel.cut;
-  const auto tiles = static_cast<Eigen::Index>(part.tile_first.size());
   const bool intrinsic = part.intrinsic();
 #pragma omp parallel
   {
-    TileBuffer buffer;  // this thread's
+    detail::TileBuffer buffer;  // this thread's
 #pragma omp for schedule(dynamic, 16)
-    for (Eigen::Index tile = 0; tile < tiles; ++tile) {
-      const Eigen::Index first = part.tile_first[static_cast<std::size_t>(tile)];
-      const int rows = static_cast<int>(part.tile_end(tile) - first);
-      Eigen::Vector3d lo, hi;
-      for (int r = 0; r < rows; ++r) {
-        const auto it = static_cast<std::size_t>(first + r);
-        const Eigen::Vector3d q(grid.xs[it], grid.ys[it], grid.zs[it]);
-        lo = r == 0 ? q : lo.cwiseMin(q);
-        hi = r == 0 ? q : hi.cwiseMax(q);
-      }
-      // Within the cut of a row => within cut + radius of the centre (1e-9 above: rounding).
-      const Eigen::Vector3d centre = 0.5 * (lo + hi);
-      const double reach = (kernel.cut + 0.5 * (hi - lo).norm()) * (1 + 1e-9);
-      std::size_t count = 0;
-      grid.for_candidates(lo, hi, kernel.cut, [&](Eigen::Index begin, Eigen::Index end) {
-        buffer.reserve(count + static_cast<std::size_t>(end - begin));
-        count = near_items(grid.xs.data(), grid.ys.data(), grid.zs.data(), static_cast<std::size_t>(begin), static_cast<std::size_t>(end),
-                           centre.data(), reach * reach, buffer.chord2[0].data(), buffer.col.data(), count);
-      });
-      gather_candidates(grid, part.mass_in_grid.data(), intrinsic, count, buffer);
-      double sum[kTileRows];
-      double* w[kTileRows];
+    for (Eigen::Index tile = 0; tile < part.tiles.size(); ++tile) {
+      const Eigen::Index first = part.tiles.first(tile);
+      const int rows = part.tiles.rows(tile);
+      const std::size_t count = detail::gather_tile_candidates(grid, first, rows, kernel.cut, part.mass_in_grid.data(), buffer);
+      double sum[detail::kTileRows];
+      double* w[detail::kTileRows];
       for (int r = 0; r < rows; ++r) {
         const auto at = static_cast<std::size_t>(first + r);
         const double q[3] = {grid.xs[at], grid.ys[at], grid.zs[at]};
@@ -313,7 +223,7 @@ void for_each_tile(const Part& part, F&& f) {
           }
         }
         gaussian_weights_wide(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
-        sum[r] = masked_weights(w[r], chord2, buffer.mass.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
+        sum[r] = masked_weights(w[r], chord2, buffer.value.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
       }
       f(first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
     }
@@ -387,7 +297,7 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   const double* mass = part.mass_in_grid.data();
   for_each_tile(part, [&](Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum, Eigen::Index count) {
     // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
-    double* out[kTileRows];
+    double* out[detail::kTileRows];
     for (int r = 0; r < rows; ++r) out[r] = yt.col(first + r).data();
     accumulate_tile_rows(w, rows, col, count, xg.data(), padded, out);
     for (int r = 0; r < rows; ++r) {
@@ -584,17 +494,11 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
 }  // namespace
 
 namespace {
-// The pieces of a surface's support (rows local to the surface) that the kernel connects: two
-// surfels of positive area interact when within the cut. Zero-area surfels can cut a thin
-// surface into pieces, each with its own zero eigenvalue. Pieces in order of their first row.
-std::vector<std::vector<Eigen::Index>> support_pieces(const MatrixFreeSurfaceOperator& op, std::size_t p,
-                                                      const std::vector<Eigen::Index>& support) {
-  const auto n = static_cast<Eigen::Index>(support.size());
-  const Eigen::Index first = op.row_offset()[p];
-  Eigen::MatrixX3d positions(n, 3);
-  for (Eigen::Index r = 0; r < n; ++r) positions.row(r) = op.positions().row(first + support[r]);
-  const double cut = op.part_cut(p);
-  const detail::Grid grid(positions, cut);
+// The pieces of `positions` that links shorter than `reach` connect, each a list of rows in
+// ascending order, pieces in order of their first row.
+std::vector<std::vector<Eigen::Index>> pieces_within(const Eigen::MatrixX3d& positions, double reach) {
+  const Eigen::Index n = positions.rows();
+  const detail::Grid grid(positions, reach);
   std::vector<Eigen::Index> piece(static_cast<std::size_t>(n), -1), stack;
   std::vector<std::vector<Eigen::Index>> pieces;
   detail::RowBuffer found;
@@ -608,15 +512,32 @@ std::vector<std::vector<Eigen::Index>> support_pieces(const MatrixFreeSurfaceOpe
       const Eigen::Index r = stack.back();
       stack.pop_back();
       pieces.back().push_back(r);
-      grid.gather_within(positions.row(r).transpose(), cut, found);
+      grid.gather_within(positions.row(r).transpose(), reach, found);
       for (std::size_t k = 0; k < found.size; ++k)
         if (piece[found.col[k]] < 0) piece[found.col[k]] = id, stack.push_back(found.col[k]);
     }
   }
-  for (auto& rows : pieces) {
-    std::sort(rows.begin(), rows.end());
+  for (auto& rows : pieces) std::sort(rows.begin(), rows.end());
+  return pieces;
+}
+
+// The pieces of a surface's support (rows local to the surface) that the kernel connects: two
+// surfels of positive area interact when within the cut. Zero-area surfels can cut a thin
+// surface into pieces, each with its own zero eigenvalue. Pieces in order of their first row.
+// Edge-adjacent surfels (centres h or h / sqrt(2) apart) are looked at first: when they already
+// join the whole support, so does the wider cut, and the search at the cut (1,000 neighbours a
+// row at h = 0.025, 4% of a torus's spectrum) is not needed.
+std::vector<std::vector<Eigen::Index>> support_pieces(const MatrixFreeSurfaceOperator& op, std::size_t p,
+                                                      const std::vector<Eigen::Index>& support) {
+  const auto n = static_cast<Eigen::Index>(support.size());
+  const Eigen::Index first = op.row_offset()[p];
+  Eigen::MatrixX3d positions(n, 3);
+  for (Eigen::Index r = 0; r < n; ++r) positions.row(r) = op.positions().row(first + support[r]);
+  const double cut = op.part_cut(p);
+  std::vector<std::vector<Eigen::Index>> pieces = pieces_within(positions, std::min(cut, 1.01 * op.h()));
+  if (pieces.size() > 1 && cut > 1.01 * op.h()) pieces = pieces_within(positions, cut);
+  for (auto& rows : pieces)
     for (Eigen::Index& r : rows) r = support[r];
-  }
   return pieces;
 }
 }  // namespace

@@ -413,3 +413,47 @@ TEST(SurfaceIntrinsicKernel, MeasuresWithoutNormalsAreRefused) {
   d.mu.normals(3, 1) = std::nan("");
   EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);
 }
+
+// The curvature pass takes rows a tile at a time over shared candidates (surfel_tiles.hpp):
+// each row's K must be the definition's over all its neighbours within the cut, whatever the
+// grid's cells (the assembled operator's grid has 4 cells a cut, the products' 2). Written out
+// here over every pair, on II normals (noisy, so that neighbours across a tile's edge matter).
+// Tolerance: the sums hold hundreds of terms, added in another order here, and K = 2 H^2 -
+// turn/weight can lose a few digits to cancellation: 1e-9 of the terms' scale 2 H^2 + turn/weight.
+// A tile whose candidates missed neighbours (the reach without the tile's radius) is off by 2e-3.
+TEST(SurfaceIntrinsicKernel, CurvatureFromTilesEqualsTheDefinitionOverAllPairs) {
+  for (const char* name : {"sphere", "torus"}) {
+    const auto s = make_surface(name);
+    s->set_pose(kCentre, Eigen::Matrix3d::Identity());
+    const VoxelSet voxels = digitize(*s, 0.1);
+    const SurfelSet surfels = extract_surfels(voxels);
+    const SurfelMeasures mu = measures(surfels, ii_normals(voxels, surfels));
+    const Eigen::MatrixX3d x = surfels.centres();
+    const Eigen::MatrixX3d& nrm = mu.normals;
+    const surface::detail::Kernel kernel(heat_time(surfels.h, {}, mu.length_scale), 6.0);
+    const Eigen::Index n = x.rows();
+    Eigen::VectorXd truth(n), scale(n);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      double weight = 0, bend = 0, turn = 0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        const Eigen::Vector3d d = (x.row(j) - x.row(i)).transpose(), sum = (nrm.row(i) + nrm.row(j)).transpose(),
+                              e = (nrm.row(j) - nrm.row(i)).transpose();
+        if (d.squaredNorm() == 0 || d.squaredNorm() > kernel.cut * kernel.cut || sum.squaredNorm() <= 2) continue;
+        const double rho2 = d.squaredNorm() - std::pow(d.dot(sum), 2) / sum.squaredNorm();
+        const double w = std::exp(-rho2 / (4 * kernel.t)) * mu.mu[j];
+        weight += w * rho2, bend += w * d.dot(e), turn += w * e.squaredNorm();
+      }
+      const double mean = bend / weight;
+      truth[i] = 2 * mean * mean - turn / weight;
+      scale[i] = 2 * mean * mean + turn / weight;
+    }
+    for (double cells_per_cut : {2.0, 4.0}) {
+      const surface::detail::Grid grid(x, kernel.cut, &nrm, cells_per_cut);
+      const Eigen::VectorXd K = surface::detail::estimated_gaussian_curvature(grid, x, nrm, mu.mu, kernel);
+      Eigen::Index worst = 0;
+      const double error = ((K - truth).cwiseAbs().array() / scale.array()).maxCoeff(&worst);
+      EXPECT_LE(error, 1e-9) << name << ", " << cells_per_cut << " cells a cut: surfel " << worst << " K " << K[worst] << " against "
+                             << truth[worst];
+    }
+  }
+}

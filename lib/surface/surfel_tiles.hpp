@@ -1,0 +1,66 @@
+// Internal: a surfel grid's rows taken a few at a time ("tiles"), with candidates that hold
+// every neighbour of the tile's rows within a cut, gathered into contiguous arrays. Shared by
+// the matrix-free products (matrix_free.cpp) and the intrinsic kernel's curvature pass
+// (intrinsic_kernel.cpp): both evaluate a vectorized expression of each row against the same
+// candidates, their positions and normals loaded once for the tile's rows.
+#pragma once
+
+#include "surfel_grid.hpp"
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <vector>
+
+namespace digilap::surface::detail {
+
+// Rows a tile.
+constexpr int kTileRows = 4;
+
+// The tiles of a grid: up to kTileRows consecutive items of one cell each. Within a cell the
+// items are in Morton order, a few h apart, so a tile's rows share most neighbours; a tile
+// across two cells could join the end of a row of cells to the start of the next, far apart (a
+// sphere at h = 0.01 had tiles of 60,000 candidates).
+class Tiles {
+public:
+  explicit Tiles(const Grid& grid);
+  Eigen::Index size() const { return static_cast<Eigen::Index>(first_.size()); }
+  /// The tile's first grid item and its number of rows (1 to kTileRows).
+  Eigen::Index first(Eigen::Index tile) const { return first_[static_cast<std::size_t>(tile)]; }
+  int rows(Eigen::Index tile) const;
+
+private:
+  std::vector<Eigen::Index> first_;
+  Eigen::Index items_ = 0;
+};
+
+// A row's values, 64-byte aligned, with room for gaussian_weights_wide's padding.
+class WeightRow {
+public:
+  void resize(std::size_t n);
+  double* data() { return data_; }
+
+private:
+  std::vector<double> storage_;
+  double* data_ = nullptr;
+};
+
+// One thread's buffers for a tile: the candidates (grid positions, coordinates, normals, one
+// value of the caller's per item), then per row two arrays of the candidates' length (the
+// products: chords and weights; the curvature pass: its terms).
+struct TileBuffer {
+  std::vector<int> col;
+  std::vector<double> x, y, z, nx, ny, nz, value;
+  std::vector<double> chord2[kTileRows];
+  WeightRow d2[kTileRows];
+  void reserve(std::size_t n);
+};
+
+// The candidates of the tile [first, first + rows): the grid items within `cut` plus the tile's
+// radius of its centre (one distance each; every row's neighbours within `cut` among them), in
+// the grid's order, into buffer.col as grid positions, with their coordinates, normals (when the
+// grid has them) and per_item[col] in buffer.value. Returns their count.
+std::size_t gather_tile_candidates(const Grid& grid, Eigen::Index first, int rows, double cut, const double* per_item,
+                                   TileBuffer& buffer);
+
+}  // namespace digilap::surface::detail
