@@ -56,7 +56,8 @@ def main():
     parser.add_argument("--count", type=int, default=20)
     parser.add_argument("--smoothing", type=int, default=10)
     parser.add_argument("--threads", default="2")
-    parser.add_argument("--variants", default="assembled,matrix-free", help="digilap runs: assembled and/or matrix-free")
+    parser.add_argument("--variants", default="assembled,matrix-free",
+                        help="digilap runs: assembled and/or matrix-free, each optionally @tolerance (matrix-free@1e-8)")
     args = parser.parse_args()
     env = dict(os.environ, OMP_NUM_THREADS=args.threads, OPENBLAS_NUM_THREADS=args.threads)
     work = pathlib.Path(tempfile.mkdtemp(prefix="surface_vs_fem_"))
@@ -73,8 +74,10 @@ def main():
 
         digilap_runs = []
         for variant in args.variants.split(","):
-            out = work / ("out_%s_%g_%s" % (shape, h, variant))
-            flags = ["--matrix-free"] if variant == "matrix-free" else []
+            out = work / ("out_%s_%g_%s" % (shape, h, variant.replace("@", "_")))
+            kind, _, tolerance = variant.partition("@")  # matrix-free@1e-8: with --tolerance 1e-8
+            flags = ["--matrix-free"] if kind == "matrix-free" else []
+            flags += ["--tolerance", tolerance] if tolerance else []
             run, d_wall, d_peak = timed([args.app, "--volume", str(path), "--h", str(h), "--count", str(args.count), "--draw", "0",
                                          "--quiet", "--out", str(out)] + flags)
             if run.returncode == 0:

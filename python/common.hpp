@@ -4,6 +4,7 @@
 
 #include "digilap/core/io.hpp"
 #include "digilap/core/operator.hpp"
+#include "digilap/core/spectrum.hpp"
 
 #include <pybind11/eigen.h>
 #include <pybind11/numpy.h>
@@ -54,6 +55,18 @@ py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) 
 }
 
 // One of the operator's matrices as scipy.sparse.csr_matrix over its own arrays.
+// The eigen-solvers' options a binding takes: count, tolerance and max_iterations as keywords
+// with SpectrumOptions' defaults (solver_arguments()), the rest at their defaults.
+inline digilap::SpectrumOptions spectrum_options(int count, double tolerance, int max_iterations) {
+  digilap::SpectrumOptions o;
+  o.count = count;
+  o.tolerance = tolerance;
+  o.max_iterations = max_iterations;
+  return o;
+}
+inline py::arg_v tolerance_argument() { return py::arg("tolerance") = digilap::SpectrumOptions{}.tolerance; }
+inline py::arg_v max_iterations_argument() { return py::arg("max_iterations") = digilap::SpectrumOptions{}.max_iterations; }
+
 inline py::object csr_view(const SparseMatrix& m, py::handle owner) {
   if (m.rows() == 0) return py::none();
   const auto n = static_cast<py::ssize_t>(m.rows()), nnz = static_cast<py::ssize_t>(m.nonZeros());

@@ -51,16 +51,20 @@ void bind_core(py::module_& m) {
       .def_readonly("iterations", &Spectrum::iterations)
       .def_readonly("massless", &Spectrum::massless, "Rows of zero mass (off the support of mu).")
       .def_readonly("undefined_estimates", &Spectrum::undefined_estimates);
-  m.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(),
+  m.def("smallest_eigenpairs", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
+          return smallest_eigenpairs(op, spectrum_options(count, tolerance, max_iterations));
+        },
+        py::arg("op"), py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(),
         "The count smallest eigenpairs of (-A, M) on the support of mu (every copy of repeated ones), with the\n"
         "Laplace-Beltrami estimates; curves and surfaces alike.");
   m.def("heat_kernel_signature", &heat_kernel_signature, py::arg("spectrum"), py::arg("times"), Release(),
         "HKS(x, tau) = sum_k exp(-lambda_k tau) phi_k(x)^2 of every row at each time: N x len(times).");
   m.def("heat_kernel_signature_times", &heat_kernel_signature_times, py::arg("spectrum"), py::arg("count") = 5,
         "Times log-spaced from 4 ln 10 / lambda_last to 4 ln 10 / lambda_1.");
-  m.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each part (contour, surface) on its own.");
+  m.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
+          return smallest_eigenpairs_per_part(op, spectrum_options(count, tolerance, max_iterations));
+        },
+        py::arg("op"), py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(), "The spectrum of each part (contour, surface) on its own.");
   py::enum_<TimeScheme>(m, "TimeScheme").value("implicit_euler", TimeScheme::ImplicitEuler).value("crank_nicolson", TimeScheme::CrankNicolson);
   py::enum_<HeatSolver>(m, "HeatSolver")
       .value("auto", HeatSolver::Auto)

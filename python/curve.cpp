@@ -222,8 +222,10 @@ void bind_curve(py::module_& m) {
       }, py::arg("contours"), py::arg("mu"), py::arg("corrected") = true, Release(),
       "The DEC baseline (does not converge on digital curves; the paper's point), lengths mu (corrected) or h.");
 
-  m.def("smallest_eigenpairs_per_contour", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each contour on its own (smallest_eigenpairs_per_part).");
+  m.def("smallest_eigenpairs_per_contour", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
+          return smallest_eigenpairs_per_part(op, spectrum_options(count, tolerance, max_iterations));
+        },
+        py::arg("op"), py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(), "The spectrum of each contour on its own (smallest_eigenpairs_per_part).");
   py::class_<MatrixFreeLaplacian, std::shared_ptr<MatrixFreeLaplacian>>(
       m, "MatrixFreeLaplacian", "L applied without storing it (geodesic mode, 1D fast Gauss transform to epsilon).")
       .def(py::init([](const ContourSet& c, const Measures& mu, double t, double c_t, double k, double epsilon) {
@@ -243,8 +245,10 @@ void bind_curve(py::module_& m) {
         py::gil_scoped_release release;
         return Eigen::VectorXd(op * x);
       }, py::arg("x"), "L x.")
-      .def("smallest_eigenpairs", [](const MatrixFreeLaplacian& op, int count) { return smallest_eigenpairs(op, {count}); },
-           py::arg("count") = 10, Release(), "The count smallest eigenpairs (preconditioned LOBPCG per contour).");
+      .def("smallest_eigenpairs", [](const MatrixFreeLaplacian& op, int count, double tolerance, int max_iterations) {
+             return smallest_eigenpairs(op, spectrum_options(count, tolerance, max_iterations));
+           },
+           py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(), "The count smallest eigenpairs (preconditioned LOBPCG per contour).");
   m.def("smooth_positions", [](const ContourOperator& op, double tau, int steps, bool preserve_size, py::object preserve_area) {
         ContourSmoothingOptions o;
         o.tau = tau, o.steps = steps, o.preserve_size = preserve_size;

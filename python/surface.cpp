@@ -176,10 +176,14 @@ void bind_surface(py::module_& m, py::module_& s) {
       "only between surfels of the same connected surface (couple_surfaces=True: between any), each surface with its\n"
       "own heat time (per_surface_time=False: one for all). kernel: 'chord' (d = |x_i - x_j|) or 'intrinsic' (the\n"
       "tangent-plane chord plus the geodesic term from the normals, weights corrected for the Gaussian curvature).");
-  s.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count) { return smallest_eigenpairs_per_part(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(), "The spectrum of each connected surface on its own.");
-  s.def("smallest_eigenpairs", [](const HeatOperator& op, int count) { return smallest_eigenpairs(op, {count}); },
-        py::arg("op"), py::arg("count") = 10, Release(),
+  s.def("smallest_eigenpairs_per_part", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
+          return smallest_eigenpairs_per_part(op, spectrum_options(count, tolerance, max_iterations));
+        },
+        py::arg("op"), py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(), "The spectrum of each connected surface on its own.");
+  s.def("smallest_eigenpairs", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
+          return smallest_eigenpairs(op, spectrum_options(count, tolerance, max_iterations));
+        },
+        py::arg("op"), py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(),
         "The count smallest eigenpairs of (-A, M) on the support of mu, with Laplace-Beltrami estimates (digilap.smallest_eigenpairs).");
   // The operator without its matrices (issue 23): products, spectrum, heat flow and smoothing in
   // O(N) memory; digilap.surface adds as_linear_operator() for SciPy.
@@ -217,9 +221,9 @@ void bind_surface(py::module_& m, py::module_& s) {
            }, py::arg("x"),
            "L_c x = L x - (t/2) L (I + t L) L x: a pointwise Laplace-Beltrami estimate with the kernel's O(t) bias removed "
            "(three products; digilap.bias_corrected_laplacian).")
-      .def("smallest_eigenpairs", [](const surface::MatrixFreeSurfaceOperator& op, int count) {
-        return surface::smallest_eigenpairs(op, {count});
-      }, py::arg("count") = 10, Release(), "The count smallest eigenpairs (LOBPCG preconditioned by the surfel graph Laplacian).");
+      .def("smallest_eigenpairs", [](const surface::MatrixFreeSurfaceOperator& op, int count, double tolerance, int max_iterations) {
+        return surface::smallest_eigenpairs(op, spectrum_options(count, tolerance, max_iterations));
+      }, py::arg("count") = 10, tolerance_argument(), max_iterations_argument(), Release(), "The count smallest eigenpairs (LOBPCG preconditioned by the surfel graph Laplacian).");
   py::class_<surface::MatrixFreeHeatFlow>(s, "MatrixFreeHeatFlow",
                                           "Heat flow on a MatrixFreeSurfaceOperator, each step by conjugate gradients on products.")
       .def(py::init([](const surface::MatrixFreeSurfaceOperator& op, double dt, TimeScheme scheme) {

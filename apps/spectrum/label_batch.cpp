@@ -54,6 +54,7 @@ StructureResult run_structure(std::int64_t label, const std::string& name, surfa
     r.volume = surface::enclosed_volume(sfe.surfels);
     SpectrumOptions so;
     so.memory_limit_bytes = op_options.memory_limit_bytes;
+    so.tolerance = batch.tolerance;
     const Eigen::Index support = static_cast<Eigen::Index>(sfe.surfels.size()) - static_cast<Eigen::Index>(sfe.measures.clamped);
     so.count = static_cast<int>(std::min<Eigen::Index>(batch.count, support - 1));
     if (so.count < batch.count) {

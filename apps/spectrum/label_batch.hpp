@@ -22,6 +22,7 @@ struct LabelBatchOptions {
   Normalization normalize = Normalization::None;
   bool reweight = false;        ///< lambda_i / i for i >= 1 (ev0 stays)
   int count = 50;               ///< eigenvalues per structure
+  double tolerance = SpectrumOptions{}.tolerance;  ///< the eigen-solver's (SpectrumOptions::tolerance)
   bool matrix_free = false;     ///< products (surface::MatrixFreeSurfaceOperator) instead of the assembled operator
 };
 

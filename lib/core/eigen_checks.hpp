@@ -21,6 +21,18 @@ inline void check_masses(const Eigen::VectorXd& mass, const char* who = "smalles
                   ": masses must be finite and >= 0");
 }
 
+/// A tolerance in [1e-14, 1) and at least one iteration, or digilap::Error (below 1e-14 the
+/// residuals' rounding decides: the solver would run every iteration allowed and then fail).
+inline void check_solver_options(double tolerance, int max_iterations) {
+  if (!(tolerance >= 1e-14 && tolerance < 1)) {
+    std::ostringstream msg;
+    msg << "smallest_eigenpairs: tolerance must be in [1e-14, 1) (rounding bounds the residuals below), got " << tolerance;
+    throw Error(msg.str());
+  }
+  if (max_iterations < 1)
+    throw Error("smallest_eigenpairs: max_iterations must be >= 1, got " + std::to_string(max_iterations));
+}
+
 /// count in [1, n - 1] for a problem on n rows with mass, or digilap::Error.
 inline void check_count(Eigen::Index n, Eigen::Index massless, int count) {
   if (count >= 1 && count <= n - 1) return;

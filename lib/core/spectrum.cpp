@@ -415,6 +415,7 @@ void embed(Spectrum& s, const Support& support) {
 
 // The spectrum of (A, mass), with support.rows all the rows (no restriction) or not.
 Spectrum spectrum_on_support(const SparseMatrix& A, const Eigen::VectorXd& mass, const Support& support, const SpectrumOptions& o) {
+  detail::check_solver_options(o.tolerance, o.max_iterations);
   detail::check_count(static_cast<Eigen::Index>(support.rows.size()), support.massless(), o.count);
   auto solve = [&](const SparseMatrix& a, const Eigen::VectorXd& m) {
     // Part by part: the connected components of A (one per contour in geodesic mode).

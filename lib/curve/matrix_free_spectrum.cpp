@@ -236,6 +236,7 @@ std::vector<detail::SpectrumPart> contour_parts(const MatrixFreeLaplacian& op, i
 
 
 Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOptions& o) {
+  detail::check_solver_options(o.tolerance, o.max_iterations);
   detail::check_eigen_request(op.mass(), o.count);
   // Contour by contour (the operator is block-diagonal by contour), then merged: repeated
   // eigenvalues of identical contours are all counted (spectrum_parts.hpp).

@@ -547,6 +547,7 @@ Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const Spectrum
   digilap::detail::check_masses(op.mass());
   Eigen::Index with_mass = 0;
   for (Eigen::Index i = 0; i < n; ++i) with_mass += op.mass()[i] > 0;
+  digilap::detail::check_solver_options(o.tolerance, o.max_iterations);
   digilap::detail::check_count(with_mass, n - with_mass, o.count);
   std::vector<digilap::detail::SpectrumPart> parts;
   std::vector<Eigen::Index> massless;

@@ -194,6 +194,15 @@ def test_matrix_free_surface_operator_from_scipy():
     # The smallest eigenpairs from the preconditioned solver equal the assembled ones (1e-8 relative).
     s_free, s_assembled = free.smallest_eigenpairs(6), digilap.smallest_eigenpairs(op, 6)
     assert np.allclose(s_free.eigenvalues[1:], s_assembled.eigenvalues[1:], rtol=1e-8)
+    # The solver's tolerance as a keyword: 1e-6 stops earlier, its eigenvalues within 1e-6 relative
+    # (their error is about the residual's square); a tolerance outside (0, 1) is refused.
+    loose = free.smallest_eigenpairs(6, tolerance=1e-6)
+    assert loose.iterations < s_free.iterations
+    assert np.allclose(loose.eigenvalues[1:], s_free.eigenvalues[1:], rtol=1e-6)
+    with pytest.raises(digilap.Error, match="tolerance"):
+        free.smallest_eigenpairs(6, tolerance=0.0)
+    with pytest.raises(digilap.Error, match="max_iterations"):
+        digilap.smallest_eigenpairs(op, 6, max_iterations=0)
     u0 = np.exp(-0.05 * ((free.positions - free.positions[0]) ** 2).sum(axis=1))
     flow = surface.MatrixFreeHeatFlow(free, op.t)
     assembled_flow = digilap.HeatFlow(op, op.t)

@@ -4,8 +4,10 @@
 #include "digilap/core/error.hpp"
 #include "digilap/surface/heat_laplacian.hpp"
 #include "digilap/core/smoothing.hpp"
+#include "digilap/surface/digitization.hpp"
 #include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/matrix_free_heat_flow.hpp"
+#include "digilap/surface/shapes.hpp"
 #include "digilap/surface/volume.hpp"
 
 #include "on_threads.hpp"
@@ -14,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <string>
@@ -127,6 +130,46 @@ TEST(MatrixFreeSurface, SpectrumEqualsTheAssembledOperators) {
   EXPECT_GT((filtered(real_label()).mu.mu.array() == 0).count(), 0);  // the case this test is for
 }
 
+TEST(MatrixFreeSurface, ALooserToleranceStopsEarlierAndKeepsItsPromise) {
+  // SpectrumOptions::tolerance on LOBPCG: every wanted residual |C y - lambda y| (C = M^(-1/2)
+  // (-A) M^(-1/2), |y| = 1) within tolerance c, c the Gershgorin bound 2 max |A_ii| / m_i. A
+  // sphere, h = 0.1 (1,880 surfels), 16 eigenpairs: l = 0 ... 3, a cluster that ends before l = 4.
+  const auto sphere = posed(make_surface("sphere"));
+  const Pipeline p = filtered(digitize(*sphere, 0.1));
+  const MatrixFreeSurfaceOperator free(p.surfels, p.mu);
+  constexpr int kCount = 16;
+  SpectrumOptions o;
+  o.count = kCount + 1;  // and l = 4's first: the gap below
+  const Spectrum tight = smallest_eigenpairs(free, o);
+  o.count = kCount;
+  o.tolerance = 1e-6;
+  const Spectrum loose = smallest_eigenpairs(free, o);
+  EXPECT_LT(loose.iterations, tight.iterations);
+  EXPECT_LT(loose.operations, tight.operations);
+
+  double c = 0;
+  for (Eigen::Index i = 0; i < free.rows(); ++i)
+    if (free.mass()[i] > 0) c = std::max(c, 2 * std::abs(free.stiffness_diagonal()[i]) / free.mass()[i]);
+  Eigen::MatrixXd ax;
+  free.apply_stiffness(loose.eigenvectors, ax);
+  double residuals2 = 0;
+  for (Eigen::Index k = 0; k < kCount; ++k) {
+    double r2 = 0;  // |M^(-1/2) (-A x - lambda M x)|^2 over the support, x M-orthonormal
+    for (Eigen::Index i = 0; i < free.rows(); ++i)
+      if (free.mass()[i] > 0) r2 += std::pow(-ax(i, k) - loose.eigenvalues[k] * free.mass()[i] * loose.eigenvectors(i, k), 2) / free.mass()[i];
+    EXPECT_LE(std::sqrt(r2), 1.01 * o.tolerance * c) << k;  // 1%: the final product's rounding against the solver's
+    residuals2 += r2;
+  }
+  // Rayleigh-Ritz on a block: each eigenvalue within |R|^2 / gap of the exact one, |R|^2 at
+  // most the sum of the columns' squared residuals, the gap from the block to the next
+  // eigenvalue (l = 4). With tolerance 1e-6 that is about 1e-7 here (the loose eigenvalues
+  // are in fact within 1e-9 of the tight ones): a wrong pair or a missed one is far outside.
+  const double gap = tight.eigenvalues[kCount] - tight.eigenvalues[kCount - 1];
+  ASSERT_GT(gap, 0.3 * tight.eigenvalues[kCount - 1]);
+  for (Eigen::Index k = 0; k < kCount; ++k)
+    EXPECT_NEAR(loose.eigenvalues[k], tight.eigenvalues[k], residuals2 / gap + 1e-12 * c) << k;
+}
+
 TEST(MatrixFreeSurface, BiasCorrectedEstimateEqualsTheAssembledOne) {
   // Two surfaces with their own t: the matrix-free L_c (three products) against the assembled
   // one. Each product is within 1e-14 of |L| |x| (above); through the chain the terms grow by
@@ -182,6 +225,14 @@ TEST(MatrixFreeSurface, BadRequestsAreRefused) {
   o.count = 0;
   EXPECT_THROW(smallest_eigenpairs(free, o), Error);
   o.count = 5;
+  for (double tolerance : {0.0, 1e-15, -1e-8, 1.0, std::nan("")}) {  // would run every iteration allowed, then fail
+    o.tolerance = tolerance;
+    EXPECT_THROW(smallest_eigenpairs(free, o), Error) << tolerance;
+  }
+  o.tolerance = 1e-10;
+  o.max_iterations = 0;
+  EXPECT_THROW(smallest_eigenpairs(free, o), Error);
+  o.max_iterations = 1000;
   o.memory_limit_bytes = 1e3;
   EXPECT_THROW(smallest_eigenpairs(free, o), Error);
   Eigen::MatrixXd y;
