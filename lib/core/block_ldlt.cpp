@@ -1,5 +1,7 @@
 #include "block_ldlt.hpp"
 
+#include "lanes.hpp"
+
 #include <Eigen/SparseCholesky>
 
 #include <algorithm>
@@ -8,19 +10,18 @@
 namespace digilap::detail {
 
 namespace {
-// 8 doubles, one row of the block (8 byte aligned: a std::vector does not align them to 64).
-typedef double Lanes8 __attribute__((vector_size(64), aligned(8)));
+// A row of the block is 8 doubles, one Lanes8u (a std::vector does not align them to 64).
 
 // z <- L^(-T) D^(-1) L^(-1) z on 8 columns, z row by row (a row's 8 values one vector).
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void solve_lanes(
-    const int* start, const int* row, const double* value, const double* inverse_d, Eigen::Index n, Lanes8* z) {
+    const int* start, const int* row, const double* value, const double* inverse_d, Eigen::Index n, Lanes8u* z) {
   for (Eigen::Index j = 0; j < n; ++j) {
-    const Lanes8 zj = z[j];
+    const Lanes8u zj = z[j];
     for (int k = start[j]; k < start[j + 1]; ++k) z[row[k]] -= value[k] * zj;
   }
   for (Eigen::Index j = 0; j < n; ++j) z[j] *= inverse_d[j];
   for (Eigen::Index j = n - 1; j >= 0; --j) {
-    Lanes8 zj = z[j];
+    Lanes8u zj = z[j];
     for (int k = start[j]; k < start[j + 1]; ++k) zj -= value[k] * z[row[k]];
     z[j] = zj;
   }
@@ -55,7 +56,7 @@ void BlockLdlt::solve(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
 #pragma omp parallel
   {
     std::vector<double> rows(8 * static_cast<std::size_t>(n));  // this thread's
-    Lanes8* z = reinterpret_cast<Lanes8*>(rows.data());
+    Lanes8u* z = reinterpret_cast<Lanes8u*>(rows.data());
 #pragma omp for schedule(dynamic, 1)
     for (Eigen::Index g = 0; g < groups; ++g) {
       const Eigen::Index first = 8 * g, count = std::min<Eigen::Index>(8, b - first);

@@ -1,5 +1,7 @@
 #include "tall_products.hpp"
 
+#include "lanes.hpp"
+
 #include <algorithm>
 #include <cstddef>
 
@@ -7,10 +9,7 @@ namespace digilap::detail {
 
 namespace {
 
-// A GCC vector of 8 doubles (one AVX-512 register, two AVX2 ones, four SSE2 ones), and its
-// unaligned view: columns start anywhere.
-typedef double Lanes8 __attribute__((vector_size(64)));
-typedef double Lanes8u __attribute__((vector_size(64), aligned(8)));
+// Columns start anywhere: loads through Lanes8u (lanes.hpp).
 
 inline Lanes8 load(const double* p) { return *reinterpret_cast<const Lanes8u*>(p); }
 

@@ -1,6 +1,7 @@
 #include "intrinsic_kernel.hpp"
 
 #include "core/gaussian_kernel.hpp"
+#include "core/lanes.hpp"
 #include "surfel_tiles.hpp"
 
 #include <algorithm>
@@ -11,7 +12,7 @@
 namespace digilap::surface::detail {
 
 namespace {
-typedef double Lanes8 __attribute__((vector_size(64)));
+using digilap::detail::Lanes8;
 
 // One row's terms over a tile's candidates (surfel_tiles.hpp), for the neighbours that count
 // (within the cut, not at the row's own place, normals within 90 degrees; 0 elsewhere): the

@@ -4,6 +4,7 @@
 #include "core/block_ldlt.hpp"
 #include "core/eigen_checks.hpp"
 #include "core/gaussian_kernel.hpp"
+#include "core/lanes.hpp"
 #include "core/lobpcg.hpp"
 #include "core/spectrum_parts.hpp"
 #include "core/union_find.hpp"
@@ -13,7 +14,6 @@
 
 
 #include <algorithm>
-#include <cstdint>
 #include <cstring>
 #include <cmath>
 #include <sstream>
@@ -60,9 +60,8 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(MatrixFreeSurfaceOperator&&
 MatrixFreeSurfaceOperator& MatrixFreeSurfaceOperator::operator=(MatrixFreeSurfaceOperator&&) noexcept = default;
 
 namespace {
-// A GCC vector of 8 doubles: one AVX-512 register (two AVX2 ones, four SSE2 ones in the other
-// builds).
-typedef double Lanes8 __attribute__((vector_size(64)));
+using digilap::detail::Lanes8;
+using digilap::detail::Lanes8u;  // a neighbour's values need not start on 64 bytes
 
 // The products' rows go R = 4 at a time (a tile: consecutive items of one grid cell, in Morton order
 // there, so a few h apart), over candidates that hold all their neighbours: each candidate's
@@ -71,9 +70,6 @@ typedef double Lanes8 __attribute__((vector_size(64)));
 // position once for 4 rows' distances. A row's weight is 0 at the candidates outside its own
 // cut. Every row's sums run in a fixed order (the candidates' order, in lanes of 8 added in a
 // fixed order), whatever the thread that computes them.
-
-// An unaligned view of 8 doubles (a neighbour's values need not start on 64 bytes).
-typedef double Lanes8u __attribute__((vector_size(64), aligned(8)));
 
 // out_r[0, V * 8) = sum_k w_r[k] x_{col_k}[0, V * 8) for the R rows of a tile, the R V sums held
 // in registers (with a run-time width they were loaded and stored back for every neighbour).
