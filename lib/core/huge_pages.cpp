@@ -27,4 +27,14 @@ void advise_huge_pages(void* data, std::size_t bytes) {
 #endif
 }
 
+void resize_on_huge_pages(Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols) {
+  if (m.size() == rows * cols) {  // Eigen keeps the buffer
+    m.resize(rows, cols);
+    return;
+  }
+  m = Eigen::MatrixXd();
+  m.resize(rows, cols);
+  advise_huge_pages(m.data(), sizeof(double) * static_cast<std::size_t>(m.size()));
+}
+
 }  // namespace digilap::detail

@@ -5,6 +5,8 @@
 // pages only when asked, before it is touched: that is what this does.
 #pragma once
 
+#include <Eigen/Core>
+
 #include <cstddef>
 
 namespace digilap::detail {
@@ -14,5 +16,10 @@ namespace digilap::detail {
 /// MADV_HUGEPAGE is unavailable, and when the environment sets DIGILAP_NO_HUGE_PAGES=1; never
 /// fails.
 void advise_huge_pages(void* data, std::size_t bytes);
+
+/// m made rows x cols, its values undefined. When that needs a new buffer (another number of
+/// values), the old one is freed first and the new one advised before anything writes it: the
+/// blocks that products and solvers reallocate as their column count changes.
+void resize_on_huge_pages(Eigen::MatrixXd& m, Eigen::Index rows, Eigen::Index cols);
 
 }  // namespace digilap::detail

@@ -4,6 +4,7 @@
 #include "core/block_ldlt.hpp"
 #include "core/eigen_checks.hpp"
 #include "core/gaussian_kernel.hpp"
+#include "core/huge_pages.hpp"
 #include "core/lanes.hpp"
 #include "core/lobpcg.hpp"
 #include "core/spectrum_parts.hpp"
@@ -286,10 +287,16 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   // to a multiple of 8, rows in the grid's order (a row's neighbours are then a few runs of
   // memory).
   const Eigen::Index padded = padded_columns(b);
-  Eigen::MatrixXd xg = Eigen::MatrixXd::Zero(padded, part.rows);
-  for (Eigen::Index it = 0; it < part.rows; ++it)
+  // Both blocks on huge pages, asked for before they are written: every product allocates them
+  // afresh, and faulting 4 KiB pages in was 13-16% of a torus's spectrum (h = 0.025, 67,000
+  // faults; docs/benchmarks.md).
+  Eigen::MatrixXd xg, yt;  // yt: in the grid's order too
+  digilap::detail::resize_on_huge_pages(xg, padded, part.rows);
+  for (Eigen::Index it = 0; it < part.rows; ++it) {
     xg.col(it).head(b) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
-  Eigen::MatrixXd yt(padded, part.rows);  // in the grid's order too
+    xg.col(it).tail(padded - b).setZero();
+  }
+  digilap::detail::resize_on_huge_pages(yt, padded, part.rows);
   const double* mass = part.mass_in_grid.data();
   for_each_tile(part, [&](Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum, Eigen::Index count) {
     // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
@@ -303,7 +310,7 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
       for (Eigen::Index c = 0; c < b; ++c) out[r][c] = scale * (out[r][c] - sum[r] * xi[c]);
     }
   });
-  y.resize(part.rows, b);
+  digilap::detail::resize_on_huge_pages(y, part.rows, b);
   for (Eigen::Index it = 0; it < part.rows; ++it) y.row(part.grid.items[static_cast<std::size_t>(it)]) = yt.col(it).head(b).transpose();
 }
 
@@ -424,10 +431,11 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
   // columns vanish anyway), multiplied, and gathered back.
   Eigen::MatrixXd full, image;
   auto minus_a = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
-    full.setZero(rows, x.cols());
+    digilap::detail::resize_on_huge_pages(full, rows, x.cols());
+    full.setZero();
     for (Eigen::Index r = 0; r < n; ++r) full.row(support[r]) = x.row(r);
     op.apply_part(p, full, image, true);
-    y.resize(n, x.cols());
+    digilap::detail::resize_on_huge_pages(y, n, x.cols());
     for (Eigen::Index r = 0; r < n; ++r) y.row(r) = -image.row(support[r]);
   };
   if (n <= digilap::detail::kDenseRows || 2 * count + 1 > n) {
@@ -454,7 +462,8 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
   for (Eigen::Index r = 0; r < n; ++r) c = std::max(c, 2 * std::abs(op.stiffness_diagonal()[first + support[r]]) / mass[r]);
   Eigen::MatrixXd scaled;
   auto apply_c = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
-    scaled = s.asDiagonal() * x;
+    digilap::detail::resize_on_huge_pages(scaled, x.rows(), x.cols());
+    scaled.noalias() = s.asDiagonal() * x;
     minus_a(scaled, y);
     y = s.asDiagonal() * y;
   };

@@ -1,8 +1,10 @@
 // The eigen-solver's own dense kernels (lib/core/tall_products.hpp, lib/core/block_ldlt.hpp),
 // against Eigen's products and Eigen's sparse LDL^T solve: every tile edge (blocks of 1 to 37
 // columns, row counts that are not multiples of 8 or 16), blocks inside larger matrices (outer
-// strides), and the solves bit for bit the same on 1 and 2 threads.
+// strides), and the solves bit for bit the same on 1 and 2 threads; and the resize of the blocks
+// on huge pages.
 #include "core/block_ldlt.hpp"
+#include "core/huge_pages.hpp"
 #include "core/tall_products.hpp"
 
 #include "on_threads.hpp"
@@ -114,3 +116,23 @@ TEST(BlockLdlt, RefusesAnIndefiniteMatrix) {
   BlockLdlt solver;
   EXPECT_FALSE(solver.compute(lower));
 }
+
+// resize_on_huge_pages (core/huge_pages.hpp): the shape asked for; the same buffer when only the
+// shape changes (no free, no fresh page faults: why products use it); a fresh, usable one when
+// the number of values changes, large enough to be advised.
+TEST(HugePages, ResizeGivesTheShapeAndKeepsTheBufferForTheSameSize) {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Constant(1000, 8, 2.0);
+  const double* before = m.data();
+  digilap::detail::resize_on_huge_pages(m, 8, 1000);
+  EXPECT_EQ(m.rows(), 8);
+  EXPECT_EQ(m.cols(), 1000);
+  EXPECT_EQ(m.data(), before);
+  digilap::detail::resize_on_huge_pages(m, 600000, 8);  // 38 MB: advised
+  ASSERT_EQ(m.rows(), 600000);
+  ASSERT_EQ(m.cols(), 8);
+  m.setConstant(0.5);
+  EXPECT_EQ(m.sum(), 0.5 * 600000 * 8);
+  digilap::detail::resize_on_huge_pages(m, 0, 8);
+  EXPECT_EQ(m.size(), 0);
+}
+
