@@ -56,7 +56,8 @@ py::array view(const T* data, std::vector<py::ssize_t> shape, py::handle owner) 
 
 // One of the operator's matrices as scipy.sparse.csr_matrix over its own arrays.
 // The eigen-solvers' options a binding takes: count, tolerance and max_iterations as keywords
-// with SpectrumOptions' defaults (solver_arguments()), the rest at their defaults.
+// with SpectrumOptions' defaults (tolerance_argument(), max_iterations_argument()), the rest at
+// their defaults.
 inline digilap::SpectrumOptions spectrum_options(int count, double tolerance, int max_iterations) {
   digilap::SpectrumOptions o;
   o.count = count;

@@ -288,7 +288,7 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   // memory).
   const Eigen::Index padded = padded_columns(b);
   // Both blocks on huge pages, asked for before they are written: every product allocates them
-  // afresh, and faulting 4 KiB pages in was 13-16% of a torus's spectrum (h = 0.025, 67,000
+  // afresh, and faulting 4 KiB pages in was about a tenth of a torus's spectrum (h = 0.025, 67,000
   // faults; docs/benchmarks.md).
   Eigen::MatrixXd xg, yt;  // yt: in the grid's order too
   digilap::detail::resize_on_huge_pages(xg, padded, part.rows);
