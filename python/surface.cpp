@@ -191,16 +191,21 @@ void bind_surface(py::module_& m, py::module_& s) {
       s, "MatrixFreeSurfaceOperator",
       "The surface operator heat_laplacian() would assemble, applied without storing L or A: memory O(N).")
       .def(py::init([](const surface::SurfelSet& f, const surface::SurfelMeasures& mu, double t, double c_t, double k,
-                       double length_scale, bool per_surface_time, bool couple_surfaces, const std::string& kernel) {
+                       double length_scale, bool per_surface_time, bool couple_surfaces, const std::string& kernel,
+                       double stored_weights_bytes) {
              HeatLaplacianOptions o;
              o.t = t, o.c_t = c_t, o.k = k, o.length_scale = length_scale;
              o.per_contour_time = per_surface_time, o.couple_surfaces = couple_surfaces;
              o.surface_kernel = surface_kernel_named(kernel);
+             o.stored_weights_bytes = stored_weights_bytes;
              py::gil_scoped_release release;
              return std::make_shared<surface::MatrixFreeSurfaceOperator>(f, mu, o);
            }), py::arg("surfels"), py::arg("mu"), py::arg("t") = 0.0, py::arg("c_t") = HeatLaplacianOptions{}.c_t,
            py::arg("k") = HeatLaplacianOptions{}.k, py::arg("length_scale") = 0.0, py::arg("per_surface_time") = true,
-           py::arg("couple_surfaces") = false, py::arg("kernel") = surface_kernel_name(HeatLaplacianOptions{}.surface_kernel))
+           py::arg("couple_surfaces") = false, py::arg("kernel") = surface_kernel_name(HeatLaplacianOptions{}.surface_kernel),
+           py::arg("stored_weights_bytes") = HeatLaplacianOptions{}.stored_weights_bytes,
+           "stored_weights_bytes: keep the kernel's weights when all of them take at most this (0: never); products then\n"
+           "skip the distances and Gaussians and give the same values (small surfaces, real labels: many times faster).")
       .def("rows", &surface::MatrixFreeSurfaceOperator::rows)
       .def_property_readonly("t", &surface::MatrixFreeSurfaceOperator::t)
       .def_property_readonly("cut", &surface::MatrixFreeSurfaceOperator::cut)
@@ -208,7 +213,7 @@ void bind_surface(py::module_& m, py::module_& s) {
       .def_property_readonly("positions", &surface::MatrixFreeSurfaceOperator::positions)
       .def_property_readonly("row_offset", &surface::MatrixFreeSurfaceOperator::row_offset)
       .def_property_readonly("part_t", &surface::MatrixFreeSurfaceOperator::part_t)
-      .def("bytes", &surface::MatrixFreeSurfaceOperator::bytes, "Bytes the operator holds (O(N)).")
+      .def("bytes", &surface::MatrixFreeSurfaceOperator::bytes, "Bytes the operator holds: O(N), plus the weights it keeps.")
       .def("matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) { return surface_product(op, x, false); },
            py::arg("x"), "L x for a vector or an N x b block (one neighbour search for the whole block).")
       .def("stiffness_matvec", [](const surface::MatrixFreeSurfaceOperator& op, const Eigen::MatrixXd& x) { return surface_product(op, x, true); },

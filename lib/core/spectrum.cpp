@@ -233,7 +233,7 @@ void symmetric_block_product(const SparseMatrix& A, const Eigen::VectorXd& s, co
 bool lobpcg_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, int count, const SpectrumOptions& o,
                      double flops_budget, Spectrum& out) {
   const Eigen::Index n = mass.size();
-  const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+  const Eigen::Index block = detail::lobpcg_block(n, count);
   const double flops_per_iteration = 2.0 * static_cast<double>(A.nonZeros()) * static_cast<double>(block);
   const int iterations = static_cast<int>(std::min<double>(o.max_iterations, flops_budget / flops_per_iteration));
   if (block >= n / 2 || iterations < 20 || detail::lobpcg_bytes(n, block) > o.memory_limit_bytes) return false;
@@ -284,7 +284,7 @@ Spectrum connected_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, 
   const double ncv = static_cast<double>(std::min<Eigen::Index>(n, o.subspace > 0 ? o.subspace : std::max(2 * count + 1, 20)));
   const double lanczos_bytes = op->bytes() + 2.0 * 8.0 * static_cast<double>(n) * (ncv + count);
   if (lanczos_bytes > o.memory_limit_bytes) {
-    const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+    const Eigen::Index block = detail::lobpcg_block(n, count);
     std::ostringstream msg;
     msg << "smallest_eigenpairs: " << count << " eigenpairs of a part of " << n << " rows need about " << lanczos_bytes / 1e9
         << " GB (factorization and Lanczos)";

@@ -169,7 +169,7 @@ Spectrum contour_spectrum(const MatrixFreeLaplacian& op, std::size_t contour, in
   // Lanczos takes over. Residual tolerance: `tolerance` times the spectrum's bound c, the
   // same scale as Lanczos's Ritz-value test on c I - C.
   constexpr int kLobpcgIterations = 300;
-  const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+  const Eigen::Index block = detail::lobpcg_block(n, count);
   // LOBPCG's blocks, and the form's scaled copy of the block it multiplies.
   const double lobpcg_need = detail::lobpcg_bytes(n, block) + 8.0 * static_cast<double>(n) * static_cast<double>(block);
   if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {

@@ -54,6 +54,18 @@ struct MatrixFreeSurfaceOperator::Part {
   // The products' tiles (surfel_tiles.hpp).
   detail::Tiles tiles{grid};
   bool intrinsic() const { return !grid.nxs.empty(); }
+  // The weights kept (HeatLaplacianOptions::stored_weights_bytes), empty when not: tile t's
+  // candidates are col[offset[t], offset[t + 1]), as grid positions, its row r's weights on them
+  // start at weight[kTileRows offset[t] + r count], their sums at sum[kTileRows t].
+  struct StoredTiles {
+    std::vector<std::size_t> offset;
+    std::vector<int> col;
+    std::vector<double> weight, sum;
+    bool kept() const { return !offset.empty(); }
+    double bytes() const {
+      return static_cast<double>(col.size() * sizeof(int) + (weight.size() + sum.size()) * sizeof(double) + offset.size() * sizeof(std::size_t));
+    }
+  } stored;
 };
 
 MatrixFreeSurfaceOperator::~MatrixFreeSurfaceOperator() = default;
@@ -181,7 +193,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) do
 }
 
 // For each tile of up to kTileRows consecutive grid items [first, first + rows) of a part,
-// f(first, rows, col, w, sum, count): candidates that hold the union of their neighbours within
+// f(tile, first, rows, col, w, sum, count): candidates that hold the union of their neighbours within
 // the cut (as grid positions, in the grid's order), each row's weights w[r][k] = w_ik mu_k on
 // them (0 outside the row's cut and on its own column) and their sums: the terms the assembled
 // row holds. The candidates are the grid's within the cut plus the tile's radius of its centre
@@ -222,9 +234,54 @@ void for_each_tile(const Part& part, F&& f) {
         gaussian_weights_wide(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
         sum[r] = masked_weights(w[r], chord2, buffer.value.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
       }
-      f(first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
+      f(tile, first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
     }
   }
+}
+
+// The same from the weights kept (Part::stored): the same arguments, bit for bit.
+template <class Part, class F>
+void for_each_stored_tile(const Part& part, F&& f) {
+  const auto& stored = part.stored;
+#pragma omp parallel for schedule(dynamic, 16)
+  for (Eigen::Index tile = 0; tile < part.tiles.size(); ++tile) {
+    const auto t = static_cast<std::size_t>(tile);
+    const std::size_t begin = stored.offset[t], count = stored.offset[t + 1] - begin;
+    const int rows = part.tiles.rows(tile);
+    const double* w[detail::kTileRows];
+    for (int r = 0; r < rows; ++r) w[r] = stored.weight.data() + detail::kTileRows * begin + static_cast<std::size_t>(r) * count;
+    f(tile, part.tiles.first(tile), rows, stored.col.data() + begin, static_cast<const double* const*>(w),
+      stored.sum.data() + detail::kTileRows * t, static_cast<Eigen::Index>(count));
+  }
+}
+
+// Keeps a part's weights (Part::stored) when they take at most `budget` bytes; returns the
+// bytes kept. One pass counts each tile's candidates (its weights are the Gaussians of the
+// diagonal's pass: the same), a second copies them into place.
+template <class Part>
+double store_weights(Part& part, const std::vector<std::size_t>& candidates, double budget) {
+  const std::size_t tiles = candidates.size();
+  std::vector<std::size_t> offset(tiles + 1, 0);
+  for (std::size_t t = 0; t < tiles; ++t) offset[t + 1] = offset[t] + candidates[t];
+  const double bytes = static_cast<double>(offset.back()) * (sizeof(int) + detail::kTileRows * sizeof(double)) +
+                       static_cast<double>(tiles) * detail::kTileRows * sizeof(double) +
+                       static_cast<double>(tiles + 1) * sizeof(std::size_t);  // what StoredTiles::bytes() will count
+  if (tiles == 0 || bytes > budget) return 0;
+  auto& stored = part.stored;
+  stored.col.resize(offset.back());
+  stored.weight.resize(detail::kTileRows * offset.back());
+  stored.sum.assign(detail::kTileRows * tiles, 0.0);
+  for_each_tile(part, [&](Eigen::Index tile, Eigen::Index, int rows, const int* col, const double* const* w, const double* sum,
+                          Eigen::Index count) {
+    const auto t = static_cast<std::size_t>(tile), n = static_cast<std::size_t>(count);
+    std::copy(col, col + n, stored.col.begin() + static_cast<std::ptrdiff_t>(offset[t]));
+    for (int r = 0; r < rows; ++r) {
+      std::copy(w[r], w[r] + n, stored.weight.begin() + static_cast<std::ptrdiff_t>(detail::kTileRows * offset[t] + static_cast<std::size_t>(r) * n));
+      stored.sum[detail::kTileRows * t + static_cast<std::size_t>(r)] = sum[r];
+    }
+  });
+  stored.offset = std::move(offset);
+  return stored.bytes();
 }
 
 }  // namespace
@@ -244,22 +301,27 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
   const bool intrinsic = options.surface_kernel == SurfaceKernel::Intrinsic;
   if (intrinsic) detail::check_intrinsic_normals("MatrixFreeSurfaceOperator", measures, n);
   const Eigen::MatrixX3d positions = surfels.centres();
+  double weight_budget = options.stored_weights_bytes;
   a_diagonal_ = Eigen::VectorXd::Zero(n);
   l_row_sums_ = Eigen::VectorXd::Zero(n);
   for (std::size_t p = 0; p + 1 < row_offset_.size(); ++p) {
     const Eigen::Index first = row_offset_[p], rows = row_offset_[p + 1] - first;
     const Eigen::MatrixX3d normals = intrinsic ? Eigen::MatrixX3d(measures.normals.middleRows(first, rows)) : Eigen::MatrixX3d();
     part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
-    const Part& part = *part_.back();
+    Part& part = *part_.back();
     // The diagonal and row sums from the products' own tiles and sums (the same bits as the
     // diagonal term of a product; faster than a row at a time).
-    for_each_tile(part, [&](Eigen::Index tile_first, int tile_rows, const int*, const double* const*, const double* sum, Eigen::Index) {
+    std::vector<std::size_t> candidates(static_cast<std::size_t>(part.tiles.size()));
+    for_each_tile(part, [&](Eigen::Index tile, Eigen::Index tile_first, int tile_rows, const int*, const double* const*,
+                            const double* sum, Eigen::Index count) {
+      candidates[static_cast<std::size_t>(tile)] = static_cast<std::size_t>(count);
       for (int r = 0; r < tile_rows; ++r) {
         const Eigen::Index it = tile_first + r, i = first + part.grid.items[static_cast<std::size_t>(it)];
         l_row_sums_[i] = part.row_scale[it] * sum[r];
         a_diagonal_[i] = -part.mass_in_grid[it] * sum[r];
       }
     });
+    weight_budget -= store_weights(part, candidates, weight_budget);
   }
   positions_ = positions;
 }
@@ -272,8 +334,11 @@ double MatrixFreeSurfaceOperator::part_cut(std::size_t p) const {
 double MatrixFreeSurfaceOperator::bytes() const {
   // Positions (24), masses, diagonals (24), and per grid item its index and coordinates (32);
   // with the intrinsic kernel, the grid's normals (24) and the row scales (8).
+  // Plus the weights kept (HeatLaplacianOptions::stored_weights_bytes).
   const bool intrinsic = !part_.empty() && part_.front()->intrinsic();
-  return (intrinsic ? 112.0 : 80.0) * static_cast<double>(rows());
+  double stored = 0;
+  for (const auto& part : part_) stored += part->stored.bytes();
+  return (intrinsic ? 112.0 : 80.0) * static_cast<double>(rows()) + stored;
 }
 
 void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const {
@@ -298,7 +363,8 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   }
   digilap::detail::resize_on_huge_pages(yt, padded, part.rows);
   const double* mass = part.mass_in_grid.data();
-  for_each_tile(part, [&](Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum, Eigen::Index count) {
+  auto rows_of_tile = [&](Eigen::Index, Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum,
+                          Eigen::Index count) {
     // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
     double* out[detail::kTileRows];
     for (int r = 0; r < rows; ++r) out[r] = yt.col(first + r).data();
@@ -309,7 +375,9 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
       const double scale = stiffness ? mass[it] : part.row_scale[it];
       for (Eigen::Index c = 0; c < b; ++c) out[r][c] = scale * (out[r][c] - sum[r] * xi[c]);
     }
-  });
+  };
+  if (part.stored.kept()) for_each_stored_tile(part, rows_of_tile);
+  else for_each_tile(part, rows_of_tile);
   digilap::detail::resize_on_huge_pages(y, part.rows, b);
   for (Eigen::Index it = 0; it < part.rows; ++it) y.row(part.grid.items[static_cast<std::size_t>(it)]) = yt.col(it).head(b).transpose();
 }
@@ -447,7 +515,7 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
     minus_a(Eigen::MatrixXd::Identity(n, n), minus_a_dense);
     return digilap::detail::dense_spectrum(-minus_a_dense, mass, count);
   }
-  const Eigen::Index block = std::min<Eigen::Index>(n, count + std::max(4, count / 2));
+  const Eigen::Index block = digilap::detail::lobpcg_block(n, count);
   if (digilap::detail::lobpcg_bytes(n, block) + op.bytes() > o.memory_limit_bytes) {
     std::ostringstream msg;
     msg << "smallest_eigenpairs (matrix-free surfaces): LOBPCG's blocks would take about "

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/LU>
 #include <Eigen/SparseCore>
 
 #include <cmath>
@@ -50,6 +51,40 @@ TEST(Lobpcg, LongRunKeepsItsBasisOrthonormalAndFindsExactEigenpairs) {
   // stay two orders below; a lost orthogonality would show at 1e-8 or more.
   const Eigen::MatrixXd gram = r.vectors.transpose() * r.vectors;
   EXPECT_LE((gram - Eigen::MatrixXd::Identity(count, count)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Lobpcg, AnExactPreconditionerKeepsTheBasisOrthonormal) {
+  // With T = C^(-1), T R = X - C^(-1) X Lambda is X itself up to what is left to converge: W is
+  // almost all in span X, the case where one pass of orthogonalization leaves the most rounding
+  // and lobpcg's check of the first pass (lobpcg.cpp, orthonormalize_against) decides whether
+  // to orthogonalize again. Whatever it decides, the eigenpairs must be exact and the vectors
+  // orthonormal.
+  const int n = 300, count = 6, block = 10;
+  const Eigen::SparseMatrix<double> c = path_laplacian(n);
+  const Eigen::MatrixXd inverse = Eigen::MatrixXd(c).inverse();
+  const digilap::detail::BlockMap apply_c = [&](const Eigen::MatrixXd& in, Eigen::MatrixXd& out) { out = c * in; };
+  const digilap::detail::BlockMap exact = [&](const Eigen::MatrixXd& in, Eigen::MatrixXd& out) { out = inverse * in; };
+  const double tolerance = 1e-12;
+  const digilap::detail::LobpcgResult r =
+      digilap::detail::lobpcg(apply_c, exact, digilap::detail::lobpcg_start(n, block), count, tolerance, 200);
+  ASSERT_TRUE(r.converged);
+  for (int k = 0; k < count; ++k) {
+    const double exact_value = 2 - 2 * std::cos((k + 1) * M_PI / (n + 1));
+    // 1e-12 is the residual's bound on the error; 1e-11 leaves room for the check's rounding.
+    EXPECT_NEAR(r.values[k], exact_value, 1e-11) << k;
+    EXPECT_NEAR((c * r.vectors.col(k) - r.values[k] * r.vectors.col(k)).norm(), 0, tolerance) << k;
+  }
+  const Eigen::MatrixXd gram = r.vectors.transpose() * r.vectors;
+  EXPECT_LE((gram - Eigen::MatrixXd::Identity(count, count)).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Lobpcg, BlockHoldsBetweenFourAndTenGuards) {
+  // Guards speed up the last wanted columns, but the dense work of an iteration grows as the
+  // block's square: half the count, at least 4, at most 10, never more than the rows.
+  EXPECT_EQ(digilap::detail::lobpcg_block(1000, 1), 5);
+  EXPECT_EQ(digilap::detail::lobpcg_block(1000, 20), 30);
+  EXPECT_EQ(digilap::detail::lobpcg_block(1000, 50), 60);
+  EXPECT_EQ(digilap::detail::lobpcg_block(55, 50), 55);
 }
 
 }  // namespace

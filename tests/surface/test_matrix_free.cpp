@@ -59,6 +59,9 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
     options.surface_kernel = kernel;
     const SurfaceOperator op = heat_laplacian(p.surfels, p.mu, options);
     const MatrixFreeSurfaceOperator free(p.surfels, p.mu, options);
+    HeatLaplacianOptions unstored = options;
+    unstored.stored_weights_bytes = 0;
+    const MatrixFreeSurfaceOperator lean(p.surfels, p.mu, unstored);
     ASSERT_EQ(free.rows(), op.rows());
     EXPECT_EQ(free.row_offset(), op.row_offset);
     EXPECT_EQ(free.part_t(), op.part_t);
@@ -74,7 +77,8 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
       EXPECT_LE(product_error(op.L, x, y), 1e-14) << columns;
     }
     EXPECT_LE((free.stiffness_diagonal() - op.A.diagonal()).cwiseAbs().maxCoeff(), 1e-14 * op.A.diagonal().cwiseAbs().maxCoeff());
-    EXPECT_LT(free.bytes(), 0.05 * heat_laplacian_bytes(static_cast<std::size_t>(op.A.nonZeros()), static_cast<std::size_t>(op.rows()), true));
+    // Without its weights kept, O(N): a twentieth of the matrices.
+    EXPECT_LT(lean.bytes(), 0.05 * heat_laplacian_bytes(static_cast<std::size_t>(op.A.nonZeros()), static_cast<std::size_t>(op.rows()), true));
   }
 }
 
@@ -98,6 +102,44 @@ TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
     EXPECT_EQ(std::memcmp(one.data(), two.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0) << columns;
     EXPECT_EQ(std::memcmp(one.data(), other.data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0) << columns;  // its factors too
   }
+  }
+}
+
+TEST(MatrixFreeSurface, StoredWeightsGiveTheSameBitsWithinTheirBudget) {
+  // HeatLaplacianOptions::stored_weights_bytes: a small surface keeps its weights and its
+  // products skip the distances and Gaussians; they must be the recomputing products' bits, for
+  // every path of the kernel (1, 7: unpadded; 30, 40: padded), both kernels, 1 and 2 threads.
+  for (const VoxelSet& set : {two_balls(), real_label()})
+  for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
+    const Pipeline p = filtered(set);
+    HeatLaplacianOptions options, unstored;
+    options.surface_kernel = unstored.surface_kernel = kernel;
+    unstored.stored_weights_bytes = 0;
+    const MatrixFreeSurfaceOperator kept(p.surfels, p.mu, options), recomputed(p.surfels, p.mu, unstored);
+    // The premise: these surfaces fit the default budget, and what is kept is counted.
+    const double stored = kept.bytes() - recomputed.bytes();
+    ASSERT_GT(stored, 0);
+    EXPECT_LE(stored, options.stored_weights_bytes);
+    for (Eigen::Index columns : {1, 7, 30, 40})
+      for (bool stiffness : {true, false})
+        for (int threads : {1, 2}) {
+          const Eigen::MatrixXd x = block(kept.rows(), columns);
+          Eigen::MatrixXd a, b;
+          omp_set_num_threads(threads);
+          if (stiffness) kept.apply_stiffness(x, a), recomputed.apply_stiffness(x, b);
+          else kept.apply_laplacian(x, a), recomputed.apply_laplacian(x, b);
+          ASSERT_EQ(a.size(), b.size());
+          EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())), 0)
+              << columns << " columns, " << threads << " threads";
+        }
+    omp_set_num_threads(2);
+    // A budget one byte short keeps less (a surface that does not fit keeps nothing; of two
+    // balls the first may still fit), and never more than the budget.
+    HeatLaplacianOptions short_budget = options;
+    short_budget.stored_weights_bytes = stored - 1;
+    const double stored_short = MatrixFreeSurfaceOperator(p.surfels, p.mu, short_budget).bytes() - recomputed.bytes();
+    EXPECT_LT(stored_short, stored);
+    EXPECT_LE(stored_short, short_budget.stored_weights_bytes);
   }
 }
 

@@ -61,6 +61,12 @@ struct HeatLaplacianOptions {
   bool stiffness = true;
   /// Refuse to allocate the matrices if their estimated size exceeds this (bytes).
   double memory_limit_bytes = 8.0 * 1024 * 1024 * 1024;
+  /// Matrix-free surface operators only: keep the kernel's weights when all of them take at
+  /// most this (bytes; 0: never), so that products stop recomputing distances and Gaussians
+  /// (the same bits). Real labels fit (JHU 1 mm's largest tract: 12 MB) and their spectra, many
+  /// products on small surfaces, gain; large smooth surfaces (a torus at h = 0.025: 390 MB)
+  /// stay in O(N) memory.
+  double stored_weights_bytes = 32.0 * 1024 * 1024;
 };
 
 /// The heat time actually used, in any dimension: options.t, or c_t h^(2/3) l^(4/3) when
