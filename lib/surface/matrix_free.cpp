@@ -301,7 +301,8 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
   const bool intrinsic = options.surface_kernel == SurfaceKernel::Intrinsic;
   if (intrinsic) detail::check_intrinsic_normals("MatrixFreeSurfaceOperator", measures, n);
   const Eigen::MatrixX3d positions = surfels.centres();
-  double weight_budget = options.stored_weights_bytes;
+  // The weights kept take at most stored_weights_bytes, and never more than a quarter of the memory limit.
+  double weight_budget = std::min(options.stored_weights_bytes, 0.25 * options.memory_limit_bytes);
   a_diagonal_ = Eigen::VectorXd::Zero(n);
   l_row_sums_ = Eigen::VectorXd::Zero(n);
   for (std::size_t p = 0; p + 1 < row_offset_.size(); ++p) {

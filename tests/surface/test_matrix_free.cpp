@@ -140,6 +140,11 @@ TEST(MatrixFreeSurface, StoredWeightsGiveTheSameBitsWithinTheirBudget) {
     const double stored_short = MatrixFreeSurfaceOperator(p.surfels, p.mu, short_budget).bytes() - recomputed.bytes();
     EXPECT_LT(stored_short, stored);
     EXPECT_LE(stored_short, short_budget.stored_weights_bytes);
+    // So does a memory limit: the weights take at most a quarter of it.
+    HeatLaplacianOptions limited = options;
+    limited.memory_limit_bytes = 2 * stored;
+    const double stored_limited = MatrixFreeSurfaceOperator(p.surfels, p.mu, limited).bytes() - recomputed.bytes();
+    EXPECT_LE(stored_limited, 0.25 * limited.memory_limit_bytes);
   }
 }
 

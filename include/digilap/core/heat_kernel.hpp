@@ -65,7 +65,7 @@ struct HeatLaplacianOptions {
   /// most this (bytes; 0: never), so that products stop recomputing distances and Gaussians
   /// (the same bits). Real labels fit (JHU 1 mm's largest tract: 12 MB) and their spectra, many
   /// products on small surfaces, gain; large smooth surfaces (a torus at h = 0.025: 390 MB)
-  /// stay in O(N) memory.
+  /// stay in O(N) memory. Never more than a quarter of memory_limit_bytes.
   double stored_weights_bytes = 32.0 * 1024 * 1024;
 };
 
