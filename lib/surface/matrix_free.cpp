@@ -62,9 +62,13 @@ struct MatrixFreeSurfaceOperator::Part {
     std::vector<int> col;
     std::vector<double> weight, sum;
     bool kept() const { return !offset.empty(); }
-    double bytes() const {
-      return static_cast<double>(col.size() * sizeof(int) + (weight.size() + sum.size()) * sizeof(double) + offset.size() * sizeof(std::size_t));
+    // Bytes of `candidates` candidates over `tiles` tiles: the estimate before keeping them and
+    // the count after are the same formula.
+    static double bytes_for(std::size_t candidates, std::size_t tiles) {
+      return static_cast<double>(candidates) * (sizeof(int) + detail::kTileRows * sizeof(double)) +
+             static_cast<double>(tiles) * detail::kTileRows * sizeof(double) + static_cast<double>(tiles + 1) * sizeof(std::size_t);
     }
+    double bytes() const { return kept() ? bytes_for(col.size(), offset.size() - 1) : 0.0; }
   } stored;
 };
 
@@ -263,10 +267,7 @@ double store_weights(Part& part, const std::vector<std::size_t>& candidates, dou
   const std::size_t tiles = candidates.size();
   std::vector<std::size_t> offset(tiles + 1, 0);
   for (std::size_t t = 0; t < tiles; ++t) offset[t + 1] = offset[t] + candidates[t];
-  const double bytes = static_cast<double>(offset.back()) * (sizeof(int) + detail::kTileRows * sizeof(double)) +
-                       static_cast<double>(tiles) * detail::kTileRows * sizeof(double) +
-                       static_cast<double>(tiles + 1) * sizeof(std::size_t);  // what StoredTiles::bytes() will count
-  if (tiles == 0 || bytes > budget) return 0;
+  if (tiles == 0 || Part::StoredTiles::bytes_for(offset.back(), tiles) > budget) return 0;
   auto& stored = part.stored;
   stored.col.resize(offset.back());
   stored.weight.resize(detail::kTileRows * offset.back());
