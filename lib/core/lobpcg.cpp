@@ -97,10 +97,10 @@ void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::
   }
 }
 
-// The first c.cols() columns of m <- (its first c.rows() columns) c + add. In place, chunk by
-// chunk of rows: a chunk's product reads only its own rows, so it may overwrite them (no
-// N-row temporary to fault in and copy back).
-void combine_in_place(Eigen::MatrixXd& m, const Eigen::MatrixXd& c, const Eigen::MatrixXd& add) {
+// The c.cols() columns of m from `first` on <- (its c.rows() columns from `first` on) c + add.
+// In place, chunk by chunk of rows: a chunk's product reads only its own rows, so it may
+// overwrite them (no N-row temporary to fault in and copy back).
+void combine_in_place(Eigen::MatrixXd& m, Eigen::Index first_col, const Eigen::MatrixXd& c, const Eigen::MatrixXd& add) {
   const Eigen::Index chunks = chunk_count(m.rows());
 #pragma omp parallel
   {
@@ -109,8 +109,8 @@ void combine_in_place(Eigen::MatrixXd& m, const Eigen::MatrixXd& c, const Eigen:
     for (Eigen::Index k = 0; k < chunks; ++k) {
       const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, m.rows() - first);
       product.resize(rows, c.cols());
-      tall_product(m.middleRows(first, rows).leftCols(c.rows()), c, product, false);
-      m.middleRows(first, rows).leftCols(c.cols()) = product + add.middleRows(first, rows);
+      tall_product(m.middleRows(first, rows).middleCols(first_col, c.rows()), c, product, false);
+      m.middleRows(first, rows).middleCols(first_col, c.cols()) = product + add.middleRows(first, rows);
     }
   }
 }
@@ -250,7 +250,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   const Eigen::Index n = start.rows(), b = start.cols();
   // Every N-row block is allocated once, here: at large N a fresh block per iteration cost
   // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each).
-  // The basis [X | W | P] and its image live side by side in s and cs; once copied there, P
+  // The basis lives in s and its image in cs as [Q | X | W | P]: Q the locked columns (below),
+  // X the active Ritz vectors, W and P this iteration's other directions. Once copied there, P
   // and C P are free for the next P and C P, and the next X and C X are formed in place
   // (11 blocks of N x b in all).
   Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, b), cp(n, b);
@@ -268,48 +269,69 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   cp.resize(n, 0);
   start.resize(0, 0);
   Eigen::VectorXd lambda = ritz.values;
+  // Hard locking: the leading wanted Ritz pairs whose residuals met the tolerance leave the
+  // iteration for good (Q, `locked` columns, their values and residuals kept). W stays
+  // orthogonal to them, as to X, but the Rayleigh-Ritz step and the block combinations no
+  // longer carry them: on a label of 50 eigenpairs these were most of an iteration's dense work
+  // once half the columns had converged (docs/benchmarks.md). Only a leading run is locked, so
+  // that Q holds the smallest Ritz values and the active ones come after them.
+  Eigen::Index locked = 0;
+  Eigen::VectorXd locked_values(count), locked_residuals(count), residual_norms;
   for (int iteration = 0;; ++iteration) {
-    const auto x = s.leftCols(bx), cx = cs.leftCols(bx);
-    r.resize(n, bx);  // no-op unless Rayleigh-Ritz dropped directions
-    r.noalias() = cx - x * lambda.asDiagonal();
-    result.residual_norms = r.colwise().norm().transpose();
+    const Eigen::Index wanted = std::max<Eigen::Index>(count - locked, 0);
+    {
+      const auto x = s.middleCols(locked, bx), cx = cs.middleCols(locked, bx);
+      r.resize(n, bx);  // no-op unless Rayleigh-Ritz dropped directions
+      r.noalias() = cx - x * lambda.asDiagonal();
+    }
+    residual_norms = r.colwise().norm().transpose();
     result.iterations = iteration;
-    if (progress) progress(iteration, result.residual_norms.head(std::min<Eigen::Index>(count, bx)).maxCoeff() / tolerance);
-    if (bx >= count && (result.residual_norms.head(count).array() <= tolerance).all()) {
+    const double worst_active = wanted > 0 ? residual_norms.head(std::min(wanted, bx)).maxCoeff() : 0.0;
+    const double worst_locked = locked > 0 ? locked_residuals.head(locked).maxCoeff() : 0.0;
+    if (progress) progress(iteration, std::max(worst_active, worst_locked) / tolerance);
+    if (bx >= wanted && (residual_norms.head(wanted).array() <= tolerance).all()) {
       result.converged = true;
       break;
     }
     if (iteration == max_iterations) break;
-    // Soft locking: the columns whose residual is already below the tolerance add no direction
-    // to W (their residuals are rounding noise) nor to the next P.
+    Eigen::Index lock = 0;
+    while (lock < wanted && lock < bx && residual_norms[lock] <= tolerance) ++lock;
+    if (lock > 0) {
+      locked_values.segment(locked, lock) = lambda.head(lock);
+      locked_residuals.segment(locked, lock) = residual_norms.head(lock);
+      locked += lock, bx -= lock;
+      lambda = lambda.tail(bx).eval();
+    }
+    // Soft locking: the active columns whose residual is already below the tolerance add no
+    // direction to W (their residuals are rounding noise) nor to the next P.
     std::vector<Eigen::Index> active;
     for (Eigen::Index c = 0; c < bx; ++c)
-      if (result.residual_norms[c] > tolerance) active.push_back(c);
-    if (static_cast<Eigen::Index>(active.size()) < bx) {
+      if (residual_norms[lock + c] > tolerance) active.push_back(c);
+    if (lock > 0 || static_cast<Eigen::Index>(active.size()) < bx) {
       Eigen::MatrixXd kept(n, static_cast<Eigen::Index>(active.size()));
-      for (std::size_t c = 0; c < active.size(); ++c) kept.col(static_cast<Eigen::Index>(c)) = r.col(active[c]);
+      for (std::size_t c = 0; c < active.size(); ++c) kept.col(static_cast<Eigen::Index>(c)) = r.col(lock + active[c]);
       r = std::move(kept);
     }
-    // Preconditioned residuals, made orthogonal to X and P and orthonormal, then multiplied by
-    // C: the basis [X W P] is orthonormal. Rayleigh-Ritz on a merely independent basis (its
-    // Gram matrix inverted) lost 1e-12 directions on real labels as X converged, and the
-    // iteration stalled at 100 times the tolerance (issue 23).
+    // Preconditioned residuals, made orthogonal to Q, X and P and orthonormal, then multiplied
+    // by C: the basis [X W P] is orthonormal and orthogonal to Q. Rayleigh-Ritz on a merely
+    // independent basis (its Gram matrix inverted) lost 1e-12 directions on real labels as X
+    // converged, and the iteration stalled at 100 times the tolerance (issue 23).
     apply_t(r, w);
-    orthonormalize_against(x, p, w);
+    orthonormalize_against(s.leftCols(locked + bx), p, w);
     apply_c(w, cw);
     result.products += static_cast<int>(w.cols());
     // Rayleigh-Ritz on [X, W, P], orthonormal: S^T C S alone (S^T S, its eigen-decomposition
     // and the map from it were a third of the time on small labels, where the dense algebra
     // outweighs the products). Should the columns' norms have drifted, S^T S is formed.
     const Eigen::Index bw = w.cols(), bp = p.cols(), cols = bx + bw + bp;
-    s.middleCols(bx, bw) = w;
-    cs.middleCols(bx, bw) = cw;
-    s.middleCols(bx + bw, bp) = p;
-    cs.middleCols(bx + bw, bp) = cp;
-    const auto basis = s.leftCols(cols), image = cs.leftCols(cols);
+    s.middleCols(locked + bx, bw) = w;
+    cs.middleCols(locked + bx, bw) = cw;
+    s.middleCols(locked + bx + bw, bp) = p;
+    cs.middleCols(locked + bx + bw, bp) = cp;
+    const auto basis = s.middleCols(locked, cols), image = cs.middleCols(locked, cols);
     const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
-    if (unit_columns(basis)) ritz = rayleigh_ritz_orthonormal(symmetric_gram(basis, image, ends), b);
-    else ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b);
+    if (unit_columns(basis)) ritz = rayleigh_ritz_orthonormal(symmetric_gram(basis, image, ends), b - locked);
+    else ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b - locked);
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
     // The next P and C P from the same coordinates (they agree to rounding), then the new X
     // and C X as X c_x + (their W, P part), in place.
@@ -319,13 +341,19 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
     combine(basis.rightCols(tail), ritz.coordinates.bottomRows(tail), r);
     combine(image.rightCols(tail), ritz.coordinates.bottomRows(tail), cw);
     const Eigen::MatrixXd x_coordinates = ritz.coordinates.topRows(bx);
-    combine_in_place(s, x_coordinates, r);
-    combine_in_place(cs, x_coordinates, cw);
+    combine_in_place(s, locked, x_coordinates, r);
+    combine_in_place(cs, locked, x_coordinates, cw);
     bx = keep;
     lambda = ritz.values;
   }
-  result.values = lambda.head(std::min<Eigen::Index>(count, lambda.size()));
-  result.vectors = s.leftCols(result.values.size());
+  const Eigen::Index found = std::min<Eigen::Index>(count, locked + bx);
+  result.values.resize(found);
+  result.values.head(locked) = locked_values.head(locked);
+  result.values.tail(found - locked) = lambda.head(found - locked);
+  result.vectors = s.leftCols(found);
+  result.residual_norms.resize(found);
+  result.residual_norms.head(locked) = locked_residuals.head(locked);
+  result.residual_norms.tail(found - locked) = residual_norms.head(found - locked);
   return result;
 }
 

@@ -15,6 +15,7 @@
 
 
 #include <algorithm>
+#include <mutex>
 #include <cstring>
 #include <cmath>
 #include <sstream>
@@ -39,7 +40,7 @@ struct MatrixFreeSurfaceOperator::Part {
   Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
   Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
        const Eigen::MatrixX3d* normals_)
-      : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_, kCellsPerCut), kernel(k) {
+      : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_, kCellsPerCut, true), kernel(k) {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
     if (normals_)
       factor = detail::curvature_factors(grid, positions, *normals_, mass.segment(first, rows), kernel);
@@ -53,20 +54,46 @@ struct MatrixFreeSurfaceOperator::Part {
   }
   // The products' tiles (surfel_tiles.hpp).
   detail::Tiles tiles{grid};
+  // Each row's sum of weights sum_j w_ij mu_j (grid order), from the constructor's pass: the
+  // diagonal of the products that take each pair once (apply_part), which see half a row.
+  Eigen::VectorXd row_sum;
+  // The grid's layers of cells along its slowest axis, the surface's longest extent (more layers
+  // share the threads better: a torus lying flat at h = 0.025 has 5 along z, 15 along x): layer
+  // l's items start at layer_item[l], its tiles at layer_tile[l] (tiles never straddle a cell).
+  // A pair's second item lies at most grid.reach layers after its first.
+  std::vector<Eigen::Index> layer_item, layer_tile;
+  // The products' blocks (z and the images, apply_part), kept from one product to the next:
+  // faulting four fresh blocks in was a third of a small surface's spectrum (a torus at
+  // h = 0.05: 0.95 s against 0.73 s). One product at a time uses them; a product that runs
+  // while another holds them allocates its own.
+  mutable std::mutex scratch_mutex;
+  mutable Eigen::MatrixXd scratch_z;
+  mutable std::vector<Eigen::MatrixXd> scratch_image;
+  void find_layers() {
+    const Eigen::Index per_layer = grid.cells_per_layer(), layers = grid.layers();
+    layer_item.resize(static_cast<std::size_t>(layers + 1));
+    layer_tile.resize(static_cast<std::size_t>(layers + 1));
+    Eigen::Index tile = 0;
+    for (Eigen::Index l = 0; l <= layers; ++l) {
+      const Eigen::Index item = grid.start[static_cast<std::size_t>(l * per_layer)];
+      while (tile < tiles.size() && tiles.first(tile) < item) ++tile;
+      layer_item[static_cast<std::size_t>(l)] = item, layer_tile[static_cast<std::size_t>(l)] = tile;
+    }
+  }
   bool intrinsic() const { return !grid.nxs.empty(); }
   // The weights kept (HeatLaplacianOptions::stored_weights_bytes), empty when not: tile t's
-  // candidates are col[offset[t], offset[t + 1]), as grid positions, its row r's weights on them
-  // start at weight[kTileRows offset[t] + r count], their sums at sum[kTileRows t].
+  // candidates after its first row are col[offset[t], offset[t + 1]), as grid positions, its row
+  // r's kernel values on them start at weight[kTileRows offset[t] + r count] (upper_tile).
   struct StoredTiles {
     std::vector<std::size_t> offset;
     std::vector<int> col;
-    std::vector<double> weight, sum;
+    std::vector<double> weight;
     bool kept() const { return !offset.empty(); }
     // Bytes of `candidates` candidates over `tiles` tiles: the estimate before keeping them and
     // the count after are the same formula.
     static double bytes_for(std::size_t candidates, std::size_t tiles) {
       return static_cast<double>(candidates) * (sizeof(int) + detail::kTileRows * sizeof(double)) +
-             static_cast<double>(tiles) * detail::kTileRows * sizeof(double) + static_cast<double>(tiles + 1) * sizeof(std::size_t);
+             static_cast<double>(tiles + 1) * sizeof(std::size_t);
     }
     double bytes() const { return kept() ? bytes_for(col.size(), offset.size() - 1) : 0.0; }
   } stored;
@@ -80,207 +107,271 @@ namespace {
 using digilap::detail::Lanes8;
 using digilap::detail::Lanes8u;  // a neighbour's values need not start on 64 bytes
 
-// The products' rows go R = 4 at a time (a tile: consecutive items of one grid cell, in Morton order
-// there, so a few h apart), over candidates that hold all their neighbours: each candidate's
-// values are then loaded once for 4 rows instead of once a row (with one row at a time, the
-// loads of the neighbours' values, 256 bytes each for 32 columns, bounded the loop), and its
-// position once for 4 rows' distances. A row's weight is 0 at the candidates outside its own
-// cut. Every row's sums run in a fixed order (the candidates' order, in lanes of 8 added in a
-// fixed order), whatever the thread that computes them.
+// A product takes each pair of rows (i, j) once, from the tile (surfel_tiles.hpp: up to 4
+// consecutive grid items of one cell, a few h apart) of the first of them in the grid's order:
+// the kernel's value g_ij goes into row i's sum and into row j's image, each loaded once for the
+// tile's 4 rows. Computing every pair from both rows, as the products did before, took twice the
+// searches, distances and Gaussians, the larger part of a product at small h (a sphere at
+// h = 0.0125: a spectrum 35 s against 25 s; docs/benchmarks.md). Every sum runs in a fixed
+// order, whatever the thread that computes it (apply_part).
+constexpr Eigen::Index kLanes = 8;
+// The grid's reach in layers is ceil(cut / cell) with cells of at least half the cut: 2, or 3
+// by rounding.
+constexpr int kMaxLayersAhead = 3;
+Eigen::Index padded_columns(Eigen::Index b) { return b < kLanes ? b : (b + kLanes - 1) / kLanes * kLanes; }
+const bool kWideVectors = __builtin_cpu_supports("avx512f");
 
-// out_r[0, V * 8) = sum_k w_r[k] x_{col_k}[0, V * 8) for the R rows of a tile, the R V sums held
-// in registers (with a run-time width they were loaded and stored back for every neighbour).
-// x stored row by row, `stride` values a row.
+// The upper triangle's weights of a row on its tile's candidates: the kernel's value where the
+// chord is within the cut and the candidate comes after the row in the grid's order, 0 elsewhere.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void upper_weights(
+    double* __restrict w, const double* __restrict chord2, const int* __restrict col, std::size_t count, double cut2, int self) {
+  for (std::size_t k = 0; k < count; ++k) w[k] = chord2[k] <= cut2 && col[k] > self ? w[k] : 0.0;
+}
+
+// Each pair once: for the R rows i_r of a tile and the candidates k after them (weights g_r[k],
+// 0 where a pair is not one), the rows' sums out_r += sum_k g_r[k] z_k and the candidates'
+// images y_k += sum_r g_r[k] z_{i_r}, V * 8 columns from z, y and out on (z = mu x, every
+// row `stride` values). The candidates fall into `segments` runs, the s-th ending at end[s]
+// and written to target[s] (the layer of the tile, the next, the one after). The rows' sums
+// and z_{i_r} are held in registers (4 V + 4 V of them).
 template <int R, int V>
-__attribute__((always_inline)) inline void accumulate_tile(const double* const* w, const int* col, Eigen::Index count, const double* x,
-                                                          Eigen::Index stride, double* const* out) {
-  Lanes8 sum[R][V] = {};
-  for (Eigen::Index k = 0; k < count; ++k) {
-    const Lanes8u* xj = reinterpret_cast<const Lanes8u*>(x + static_cast<std::ptrdiff_t>(col[k]) * stride);
-    Lanes8 xv[V];
-    for (int v = 0; v < V; ++v) xv[v] = xj[v];
-    for (int r = 0; r < R; ++r) {
-      const double wk = w[r][k];  // scalar times vector: one broadcast
-      for (int v = 0; v < V; ++v) sum[r][v] += wk * xv[v];
+__attribute__((always_inline)) inline void symmetric_tile(const double* const* g, const int* col, const Eigen::Index* end, int segments,
+                                                         double* const* target, const double* z, Eigen::Index stride,
+                                                         const double* const* z_rows, double* const* out) {
+  Lanes8 sum[R][V] = {}, u[R][V];
+  for (int r = 0; r < R; ++r)
+    for (int v = 0; v < V; ++v) u[r][v] = *reinterpret_cast<const Lanes8u*>(z_rows[r] + 8 * v);
+  Eigen::Index k = 0;
+  for (int segment = 0; segment < segments; ++segment) {
+    double* y = target[segment];
+    for (; k < end[segment]; ++k) {
+      const std::ptrdiff_t at = static_cast<std::ptrdiff_t>(col[k]) * stride;
+      const Lanes8u* zk = reinterpret_cast<const Lanes8u*>(z + at);
+      Lanes8u* yk = reinterpret_cast<Lanes8u*>(y + at);
+      Lanes8 zv[V], yv[V];
+      for (int v = 0; v < V; ++v) zv[v] = zk[v], yv[v] = yk[v];
+      for (int r = 0; r < R; ++r) {
+        const double gk = g[r][k];
+        for (int v = 0; v < V; ++v) sum[r][v] += gk * zv[v], yv[v] += gk * u[r][v];
+      }
+      for (int v = 0; v < V; ++v) yk[v] = yv[v];
     }
   }
   for (int r = 0; r < R; ++r)
-    for (int v = 0; v < V; ++v) *reinterpret_cast<Lanes8u*>(out[r] + 8 * v) = sum[r][v];
+    for (int v = 0; v < V; ++v) {
+      Lanes8u* o = reinterpret_cast<Lanes8u*>(out[r] + 8 * v);
+      *o = *o + sum[r][v];
+    }
 }
 
 template <int R>
-__attribute__((always_inline)) inline void accumulate_rows(const double* const* w, const int* col, Eigen::Index count, const double* x,
-                                                          Eigen::Index b, double* const* out, bool wide) {
+__attribute__((always_inline)) inline void symmetric_rows(const double* const* g, const int* col, const Eigen::Index* end, int segments,
+                                                         double* const* target, const double* z, Eigen::Index b,
+                                                         const double* const* z_rows, double* const* out, bool wide) {
+  double* t[kMaxLayersAhead + 1];
+  const double* zr[R];
   double* o[R];
   Eigen::Index c = 0;
   auto pass = [&](auto columns) {  // columns: V * 8 of them, from c
-    for (int r = 0; r < R; ++r) o[r] = out[r] + c;
-    accumulate_tile<R, decltype(columns)::value / 8>(w, col, count, x + c, b, o);
+    for (int s = 0; s < segments; ++s) t[s] = target[s] + c;
+    for (int r = 0; r < R; ++r) zr[r] = z_rows[r] + c, o[r] = out[r] + c;
+    symmetric_tile<R, decltype(columns)::value / 8>(g, col, end, segments, t, z + c, b, zr, o);
     c += decltype(columns)::value;
   };
-  // AVX-512: 32 columns a pass (R x 4 registers of sums, of 32); else 8 (R x 2 of 16 AVX2 ones).
+  // AVX-512: 16 columns a pass (R x 2 registers of sums and as many of the rows' values); else 8.
   if (wide)
-    for (; c + 32 <= b;) pass(std::integral_constant<int, 32>{});
+    for (; c + 16 <= b;) pass(std::integral_constant<int, 16>{});
   for (; c < b;) pass(std::integral_constant<int, 8>{});
 }
 
-// Fewer than 8 columns, unpadded (b values a row): for each column, 8 partial sums a row over
-// the neighbours 8 at a time, then added in a fixed order (one sum a row was a chain of
-// dependent additions, 4 cycles a neighbour).
+// Fewer than 8 columns, unpadded (b values a row: a heat step, one product of the convergence
+// sweep), column by column: the rows' sums in 8 partial sums over the candidates 8 at a time,
+// added in a fixed order at the end (one sum a row was a chain of dependent additions), the
+// candidates' images 8 at a time, then added to theirs one by one.
 template <int R>
-__attribute__((always_inline)) inline void accumulate_narrow(const double* const* w, const int* col, Eigen::Index count, const double* x,
-                                                            Eigen::Index b, double* const* out) {
+__attribute__((always_inline)) inline void symmetric_narrow(const double* const* g, const int* col, const Eigen::Index* end, int segments,
+                                                           double* const* target, const double* z, Eigen::Index b,
+                                                           const double* const* z_rows, double* const* out) {
   for (Eigen::Index c = 0; c < b; ++c) {
+    double u[R], tail[R] = {};
     Lanes8 partial[R] = {};
+    for (int r = 0; r < R; ++r) u[r] = z_rows[r][c];
     Eigen::Index k = 0;
-    for (; k + 8 <= count; k += 8) {
-      Lanes8 xv;
-      for (int l = 0; l < 8; ++l) xv[l] = x[static_cast<std::ptrdiff_t>(col[k + l]) * b + c];
-      for (int r = 0; r < R; ++r) partial[r] += *reinterpret_cast<const Lanes8u*>(w[r] + k) * xv;
+    for (int segment = 0; segment < segments; ++segment) {
+      double* y = target[segment];
+      for (; k + 8 <= end[segment]; k += 8) {
+        Lanes8 zv, image = {};
+        for (int l = 0; l < 8; ++l) zv[l] = z[static_cast<std::ptrdiff_t>(col[k + l]) * b + c];
+        for (int r = 0; r < R; ++r) {
+          const Lanes8 gv = *reinterpret_cast<const Lanes8u*>(g[r] + k);
+          partial[r] += gv * zv, image += gv * u[r];
+        }
+        for (int l = 0; l < 8; ++l) y[static_cast<std::ptrdiff_t>(col[k + l]) * b + c] += image[l];
+      }
+      for (; k < end[segment]; ++k) {
+        const double zk = z[static_cast<std::ptrdiff_t>(col[k]) * b + c];
+        double image = 0;
+        for (int r = 0; r < R; ++r) tail[r] += g[r][k] * zk, image += g[r][k] * u[r];
+        y[static_cast<std::ptrdiff_t>(col[k]) * b + c] += image;
+      }
     }
     for (int r = 0; r < R; ++r) {
       double sum = 0;
       for (int l = 0; l < 8; ++l) sum += partial[r][l];
-      for (Eigen::Index j = k; j < count; ++j) sum += w[r][j] * x[static_cast<std::ptrdiff_t>(col[j]) * b + c];
-      out[r][c] = sum;
+      out[r][c] += sum + tail[r];
     }
   }
 }
 
-// out_r[0, b) = sum_k w_r[k] x_{col_k}[0, b) for the `rows` rows of a tile, x stored row by row,
-// b values a row: the products' hot loop. A block of 8 columns or more comes padded with zeros
-// to a multiple of 8. Fewer than 8 columns (a heat step, one product of the convergence sweep)
-// are not padded, so that a neighbour's values share its cache line with the next ones. Each
-// sum in a fixed order for a given build (AVX-512, AVX2 or baseline, chosen at run time; the
-// same CPU always runs the same build, so results do not depend on the threads).
-constexpr Eigen::Index kLanes = 8;
-Eigen::Index padded_columns(Eigen::Index b) { return b < kLanes ? b : (b + kLanes - 1) / kLanes * kLanes; }
-const bool kWideVectors = __builtin_cpu_supports("avx512f");
-
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void accumulate_tile_rows(
-    const double* const* w, int rows, const int* col, Eigen::Index count, const double* x, Eigen::Index b, double* const* out) {
+// The products' hot loop, for the `rows` rows of a tile: symmetric_rows from 8 columns on (padded
+// to a multiple of 8), symmetric_narrow below. Built for AVX-512, AVX2 and the baseline, chosen at
+// run time (the same CPU always runs the same build, so results do not depend on the threads).
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void symmetric_tile_rows(
+    const double* const* g, int rows, const int* col, const Eigen::Index* end, int segments, double* const* target, const double* z,
+    Eigen::Index b, const double* const* z_rows, double* const* out) {
   if (b < kLanes) {
     switch (rows) {
-      case 4: accumulate_narrow<4>(w, col, count, x, b, out); break;
-      case 3: accumulate_narrow<3>(w, col, count, x, b, out); break;
-      case 2: accumulate_narrow<2>(w, col, count, x, b, out); break;
-      default: accumulate_narrow<1>(w, col, count, x, b, out); break;
+      case 4: symmetric_narrow<4>(g, col, end, segments, target, z, b, z_rows, out); break;
+      case 3: symmetric_narrow<3>(g, col, end, segments, target, z, b, z_rows, out); break;
+      case 2: symmetric_narrow<2>(g, col, end, segments, target, z, b, z_rows, out); break;
+      default: symmetric_narrow<1>(g, col, end, segments, target, z, b, z_rows, out); break;
     }
     return;
   }
   switch (rows) {
-    case 4: accumulate_rows<4>(w, col, count, x, b, out, kWideVectors); break;
-    case 3: accumulate_rows<3>(w, col, count, x, b, out, kWideVectors); break;
-    case 2: accumulate_rows<2>(w, col, count, x, b, out, kWideVectors); break;
-    default: accumulate_rows<1>(w, col, count, x, b, out, kWideVectors); break;
+    case 4: symmetric_rows<4>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors); break;
+    case 3: symmetric_rows<3>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors); break;
+    case 2: symmetric_rows<2>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors); break;
+    default: symmetric_rows<1>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors); break;
   }
 }
 
-// A row's weights on the tile's candidates: w_k mu_k where its chord is within the cut and k is
-// not the row itself, 0 elsewhere; returns their sum (8 partial sums, then added in a fixed
-// order: the same bits whatever the thread).
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) double masked_weights(
-    double* __restrict w, const double* __restrict chord2, const double* __restrict mass, const int* __restrict col, std::size_t count,
-    double cut2, int self) {
-  for (std::size_t k = 0; k < count; ++k) w[k] = chord2[k] <= cut2 && col[k] != self ? w[k] * mass[k] : 0.0;
-  Lanes8 partial = {};
-  std::size_t k = 0;
-  for (; k + 8 <= count; k += 8) {
-    Lanes8 v;
-    std::memcpy(&v, w + k, sizeof(v));
-    partial += v;
-  }
-  double sum = 0;
-  for (int l = 0; l < 8; ++l) sum += partial[l];
-  for (; k < count; ++k) sum += w[k];
-  return sum;
-}
-
-// For each tile of up to kTileRows consecutive grid items [first, first + rows) of a part,
-// f(tile, first, rows, col, w, sum, count): candidates that hold the union of their neighbours within
-// the cut (as grid positions, in the grid's order), each row's weights w[r][k] = w_ik mu_k on
-// them (0 outside the row's cut and on its own column) and their sums: the terms the assembled
-// row holds. The candidates are the grid's within the cut plus the tile's radius of its centre
-// (surfel_tiles.hpp), so that the kernel's distances (the intrinsic one: 20 operations) and the
-// Gaussians are computed for few more than the neighbours (a torus at h = 0.025: the grid's
-// cells offered 1.5 times the tile's neighbours).
-template <class Part, class F>
-void for_each_tile(const Part& part, F&& f) {
+// The upper triangle of a tile: its candidates from its first row on (as grid positions, in
+// the grid's order), each row's kernel values g[r][k] on them, 0 outside the row's cut and at or
+// before the row itself; returns their count. g points into `buffer`.
+template <class Part>
+std::size_t upper_tile(const Part& part, Eigen::Index first, int rows, detail::TileBuffer& buffer, double** g) {
   const detail::Grid& grid = part.grid;
   const detail::Kernel& kernel = part.kernel;
-  const double cut2 = kernel.cut * kernel.cut;
-  const bool intrinsic = part.intrinsic();
+  const std::size_t count = detail::gather_tile_candidates(grid, first, rows, kernel.cut, nullptr, buffer, first);
+  for (int r = 0; r < rows; ++r) {
+    const auto at = static_cast<std::size_t>(first + r);
+    const double q[3] = {grid.xs[at], grid.ys[at], grid.zs[at]};
+    double* chord2 = buffer.chord2[r].data();
+    g[r] = buffer.d2[r].data();
+    if (part.intrinsic()) {
+      const double nq[3] = {grid.nxs[at], grid.nys[at], grid.nzs[at]};
+      detail::intrinsic_distances(buffer.x.data(), buffer.y.data(), buffer.z.data(), buffer.nx.data(), buffer.ny.data(),
+                                  buffer.nz.data(), count, q, nq, chord2, g[r]);
+    } else {
+      for (std::size_t k = 0; k < count; ++k) {
+        const double dx = buffer.x[k] - q[0], dy = buffer.y[k] - q[1], dz = buffer.z[k] - q[2];
+        chord2[k] = g[r][k] = dx * dx + dy * dy + dz * dz;
+      }
+    }
+    gaussian_weights_wide(g[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
+    upper_weights(g[r], chord2, buffer.col.data(), count, kernel.cut * kernel.cut, static_cast<int>(at));
+  }
+  return count;
+}
+
+// f(layer, tile, first, rows, col, g, count) for each tile of a part with its upper triangle
+// (upper_tile, or the same values kept in Part::stored): the grid's z layers in parallel, the
+// tiles of a layer in order on one thread. A pair's second row is at most grid.reach layers
+// after its first, so that a layer's products write only to its own rows and to those of the
+// next grid.reach layers (apply_part keeps one image a layer distance).
+template <class Part, class F>
+void for_each_upper_tile(const Part& part, F&& f) {
+  const auto& stored = part.stored;
 #pragma omp parallel
   {
     detail::TileBuffer buffer;  // this thread's
-#pragma omp for schedule(dynamic, 16)
-    for (Eigen::Index tile = 0; tile < part.tiles.size(); ++tile) {
-      const Eigen::Index first = part.tiles.first(tile);
-      const int rows = part.tiles.rows(tile);
-      const std::size_t count = detail::gather_tile_candidates(grid, first, rows, kernel.cut, part.mass_in_grid.data(), buffer);
-      double sum[detail::kTileRows];
-      double* w[detail::kTileRows];
-      for (int r = 0; r < rows; ++r) {
-        const auto at = static_cast<std::size_t>(first + r);
-        const double q[3] = {grid.xs[at], grid.ys[at], grid.zs[at]};
-        double* chord2 = buffer.chord2[r].data();
-        w[r] = buffer.d2[r].data();
-        if (intrinsic) {
-          const double nq[3] = {grid.nxs[at], grid.nys[at], grid.nzs[at]};
-          detail::intrinsic_distances(buffer.x.data(), buffer.y.data(), buffer.z.data(), buffer.nx.data(), buffer.ny.data(),
-                                      buffer.nz.data(), count, q, nq, chord2, w[r]);
+    double* g[detail::kTileRows];
+#pragma omp for schedule(dynamic, 1)
+    for (Eigen::Index layer = 0; layer < part.grid.layers(); ++layer)
+      for (Eigen::Index tile = part.layer_tile[static_cast<std::size_t>(layer)]; tile < part.layer_tile[static_cast<std::size_t>(layer + 1)];
+           ++tile) {
+        const Eigen::Index first = part.tiles.first(tile);
+        const int rows = part.tiles.rows(tile);
+        if (stored.kept()) {
+          const auto t = static_cast<std::size_t>(tile);
+          const std::size_t begin = stored.offset[t], count = stored.offset[t + 1] - begin;
+          const double* kept[detail::kTileRows];
+          for (int r = 0; r < rows; ++r) kept[r] = stored.weight.data() + detail::kTileRows * begin + static_cast<std::size_t>(r) * count;
+          f(layer, tile, first, rows, stored.col.data() + begin, static_cast<const double* const*>(kept), count);
         } else {
-          for (std::size_t k = 0; k < count; ++k) {
-            const double dx = buffer.x[k] - q[0], dy = buffer.y[k] - q[1], dz = buffer.z[k] - q[2];
-            chord2[k] = w[r][k] = dx * dx + dy * dy + dz * dz;
-          }
+          const std::size_t count = upper_tile(part, first, rows, buffer, g);
+          f(layer, tile, first, rows, buffer.col.data(), static_cast<const double* const*>(g), count);
         }
-        gaussian_weights_wide(w[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
-        sum[r] = masked_weights(w[r], chord2, buffer.value.data(), buffer.col.data(), count, cut2, static_cast<int>(at));
       }
-      f(tile, first, rows, buffer.col.data(), static_cast<const double* const*>(w), sum, static_cast<Eigen::Index>(count));
-    }
   }
 }
 
-// The same from the weights kept (Part::stored): the same arguments, bit for bit.
-template <class Part, class F>
-void for_each_stored_tile(const Part& part, F&& f) {
-  const auto& stored = part.stored;
-#pragma omp parallel for schedule(dynamic, 16)
-  for (Eigen::Index tile = 0; tile < part.tiles.size(); ++tile) {
-    const auto t = static_cast<std::size_t>(tile);
-    const std::size_t begin = stored.offset[t], count = stored.offset[t + 1] - begin;
-    const int rows = part.tiles.rows(tile);
-    const double* w[detail::kTileRows];
-    for (int r = 0; r < rows; ++r) w[r] = stored.weight.data() + detail::kTileRows * begin + static_cast<std::size_t>(r) * count;
-    f(tile, part.tiles.first(tile), rows, stored.col.data() + begin, static_cast<const double* const*>(w),
-      stored.sum.data() + detail::kTileRows * t, static_cast<Eigen::Index>(count));
-  }
-}
-
-// Keeps a part's weights (Part::stored) when they take at most `budget` bytes; returns the
-// bytes kept. One pass counts each tile's candidates (its weights are the Gaussians of the
-// diagonal's pass: the same), a second copies them into place.
+// Sums of each row of a part over its pairs, received = sum_j g_ij z_j for z in the grid's order
+// (a column per row, from 8 values on padded to a multiple of 8), returned in image[0]; `counts`,
+// if given, gets each tile's candidates. The images, in the grid's order: image[d] holds what rows receive from the
+// tiles d layers before theirs (for_each_upper_tile), written by that layer's thread in the
+// order of its tiles, and they are added in the order of d: the same bits whatever the threads.
 template <class Part>
-double store_weights(Part& part, const std::vector<std::size_t>& candidates, double budget) {
-  const std::size_t tiles = candidates.size();
+const Eigen::MatrixXd& received(const Part& part, const Eigen::MatrixXd& z, std::vector<Eigen::MatrixXd>& image,
+                                std::vector<std::size_t>* counts) {
+  const Eigen::Index n = part.rows, padded = z.rows();
+  const int ahead = part.grid.reach;
+  if (ahead > kMaxLayersAhead) throw Error("MatrixFreeSurfaceOperator: a grid reach of " + std::to_string(ahead) + " layers (internal error)");
+  image.resize(static_cast<std::size_t>(ahead + 1));
+  for (Eigen::MatrixXd& m : image) {
+    digilap::detail::resize_on_huge_pages(m, padded, n);
+    m.setZero();
+  }
+  if (counts) counts->assign(static_cast<std::size_t>(part.tiles.size()), 0);
+  const Eigen::Index layers = part.grid.layers();
+  for_each_upper_tile(part, [&](Eigen::Index layer, Eigen::Index tile, Eigen::Index first, int rows, const int* col, const double* const* g,
+                                std::size_t count) {
+    if (counts) (*counts)[static_cast<std::size_t>(tile)] = count;
+    double* target[kMaxLayersAhead + 1];
+    Eigen::Index end[kMaxLayersAhead + 1];
+    const int segments = static_cast<int>(std::min<Eigen::Index>(ahead, layers - 1 - layer)) + 1;
+    // The candidates are in the grid's order: those of each layer ahead follow each other.
+    for (int d = 0; d < segments; ++d) {
+      target[d] = image[static_cast<std::size_t>(d)].data();
+      const int next_layer = static_cast<int>(part.layer_item[static_cast<std::size_t>(layer + d + 1)]);
+      end[d] = d + 1 == segments ? static_cast<Eigen::Index>(count) : std::lower_bound(col, col + count, next_layer) - col;
+    }
+    const double* z_rows[detail::kTileRows];
+    double* out[detail::kTileRows];
+    for (int r = 0; r < rows; ++r) z_rows[r] = z.col(first + r).data(), out[r] = image[0].col(first + r).data();
+    symmetric_tile_rows(g, rows, col, end, segments, target, z.data(), padded, z_rows, out);
+  });
+  for (int d = 1; d <= ahead; ++d) image[0] += image[static_cast<std::size_t>(d)];
+  return image[0];
+}
+
+// Keeps a part's upper triangles (Part::stored) when their `counts` of candidates (received's)
+// take at most `budget` bytes; returns the bytes kept.
+template <class Part>
+double store_weights(Part& part, const std::vector<std::size_t>& counts, double budget) {
+  const std::size_t tiles = counts.size();
   std::vector<std::size_t> offset(tiles + 1, 0);
-  for (std::size_t t = 0; t < tiles; ++t) offset[t + 1] = offset[t] + candidates[t];
+  for (std::size_t t = 0; t < tiles; ++t) offset[t + 1] = offset[t] + counts[t];
   if (tiles == 0 || Part::StoredTiles::bytes_for(offset.back(), tiles) > budget) return 0;
   auto& stored = part.stored;
   stored.col.resize(offset.back());
   stored.weight.resize(detail::kTileRows * offset.back());
-  stored.sum.assign(detail::kTileRows * tiles, 0.0);
-  for_each_tile(part, [&](Eigen::Index tile, Eigen::Index, int rows, const int* col, const double* const* w, const double* sum,
-                          Eigen::Index count) {
-    const auto t = static_cast<std::size_t>(tile), n = static_cast<std::size_t>(count);
-    std::copy(col, col + n, stored.col.begin() + static_cast<std::ptrdiff_t>(offset[t]));
-    for (int r = 0; r < rows; ++r) {
-      std::copy(w[r], w[r] + n, stored.weight.begin() + static_cast<std::ptrdiff_t>(detail::kTileRows * offset[t] + static_cast<std::size_t>(r) * n));
-      stored.sum[detail::kTileRows * t + static_cast<std::size_t>(r)] = sum[r];
+#pragma omp parallel
+  {
+    detail::TileBuffer buffer;
+    double* g[detail::kTileRows];
+#pragma omp for schedule(dynamic, 16)
+    for (Eigen::Index tile = 0; tile < part.tiles.size(); ++tile) {
+      const auto t = static_cast<std::size_t>(tile);
+      const int rows = part.tiles.rows(tile);
+      const std::size_t n = upper_tile(part, part.tiles.first(tile), rows, buffer, g);
+      std::copy(buffer.col.begin(), buffer.col.begin() + static_cast<std::ptrdiff_t>(n), stored.col.begin() + static_cast<std::ptrdiff_t>(offset[t]));
+      for (int r = 0; r < rows; ++r)
+        std::copy(g[r], g[r] + n,
+                  stored.weight.begin() + static_cast<std::ptrdiff_t>(detail::kTileRows * offset[t] + static_cast<std::size_t>(r) * n));
     }
-  });
+  }
   stored.offset = std::move(offset);
   return stored.bytes();
 }
@@ -311,18 +402,19 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
     const Eigen::MatrixX3d normals = intrinsic ? Eigen::MatrixX3d(measures.normals.middleRows(first, rows)) : Eigen::MatrixX3d();
     part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
     Part& part = *part_.back();
-    // The diagonal and row sums from the products' own tiles and sums (the same bits as the
-    // diagonal term of a product; faster than a row at a time).
-    std::vector<std::size_t> candidates(static_cast<std::size_t>(part.tiles.size()));
-    for_each_tile(part, [&](Eigen::Index tile, Eigen::Index tile_first, int tile_rows, const int*, const double* const*,
-                            const double* sum, Eigen::Index count) {
-      candidates[static_cast<std::size_t>(tile)] = static_cast<std::size_t>(count);
-      for (int r = 0; r < tile_rows; ++r) {
-        const Eigen::Index it = tile_first + r, i = first + part.grid.items[static_cast<std::size_t>(it)];
-        l_row_sums_[i] = part.row_scale[it] * sum[r];
-        a_diagonal_[i] = -part.mass_in_grid[it] * sum[r];
-      }
-    });
+    // Each row's sum of weights, sum_j g_ij mu_j: the products' own loop on mu (the diagonal
+    // then cancels the products' constant part to rounding), which also counts each tile's
+    // candidates for store_weights.
+    part.find_layers();
+    std::vector<std::size_t> candidates;
+    std::vector<Eigen::MatrixXd> image;
+    const Eigen::MatrixXd& sums = received(part, part.mass_in_grid.transpose(), image, &candidates);
+    part.row_sum = sums.row(0).transpose();
+    for (Eigen::Index it = 0; it < rows; ++it) {
+      const Eigen::Index i = first + part.grid.items[static_cast<std::size_t>(it)];
+      l_row_sums_[i] = part.row_scale[it] * part.row_sum[it];
+      a_diagonal_[i] = -part.mass_in_grid[it] * part.row_sum[it];
+    }
     weight_budget -= store_weights(part, candidates, weight_budget);
   }
   positions_ = positions;
@@ -349,39 +441,33 @@ void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd&
   if (x.rows() != part.rows)
     throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
                 std::to_string(part.rows));
-  const Eigen::Index b = x.cols();
-  // Each row's b values contiguous (the inner loop runs over them), from 8 on padded with zeros
-  // to a multiple of 8, rows in the grid's order (a row's neighbours are then a few runs of
-  // memory).
+  const Eigen::Index b = x.cols(), n = part.rows;
+  // z = mu x, each row's b values contiguous (the inner loop runs over them), from 8 on padded
+  // with zeros to a multiple of 8, rows in the grid's order (a row's neighbours are then a few
+  // runs of memory).
   const Eigen::Index padded = padded_columns(b);
-  // Both blocks on huge pages, asked for before they are written: every product allocates them
-  // afresh, and faulting 4 KiB pages in was about a tenth of a torus's spectrum (h = 0.025, 67,000
-  // faults; docs/benchmarks.md).
-  Eigen::MatrixXd xg, yt;  // yt: in the grid's order too
-  digilap::detail::resize_on_huge_pages(xg, padded, part.rows);
-  for (Eigen::Index it = 0; it < part.rows; ++it) {
-    xg.col(it).head(b) = x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
-    xg.col(it).tail(padded - b).setZero();
+  // The blocks are the part's own (Part::scratch_z), or, when they are in use, fresh ones on huge
+  // pages, asked for before they are written (faulting 4 KiB pages in was about a tenth of a
+  // torus's spectrum at h = 0.025, 67,000 faults; docs/benchmarks.md).
+  std::unique_lock<std::mutex> scratch(part.scratch_mutex, std::try_to_lock);
+  Eigen::MatrixXd own_z;
+  std::vector<Eigen::MatrixXd> own_image;
+  Eigen::MatrixXd& z = scratch.owns_lock() ? part.scratch_z : own_z;
+  std::vector<Eigen::MatrixXd>& image = scratch.owns_lock() ? part.scratch_image : own_image;
+  digilap::detail::resize_on_huge_pages(z, padded, n);
+  for (Eigen::Index it = 0; it < n; ++it) {
+    z.col(it).head(b) = part.mass_in_grid[it] * x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
+    z.col(it).tail(padded - b).setZero();
   }
-  digilap::detail::resize_on_huge_pages(yt, padded, part.rows);
-  const double* mass = part.mass_in_grid.data();
-  auto rows_of_tile = [&](Eigen::Index, Eigen::Index first, int rows, const int* col, const double* const* w, const double* sum,
-                          Eigen::Index count) {
-    // L_ij = w_ij mu_j off the diagonal, L_ii = -sum of them: the assembled row.
-    double* out[detail::kTileRows];
-    for (int r = 0; r < rows; ++r) out[r] = yt.col(first + r).data();
-    accumulate_tile_rows(w, rows, col, count, xg.data(), padded, out);
-    for (int r = 0; r < rows; ++r) {
-      const Eigen::Index it = first + r;
-      const double* xi = xg.col(it).data();
-      const double scale = stiffness ? mass[it] : part.row_scale[it];
-      for (Eigen::Index c = 0; c < b; ++c) out[r][c] = scale * (out[r][c] - sum[r] * xi[c]);
-    }
-  };
-  if (part.stored.kept()) for_each_stored_tile(part, rows_of_tile);
-  else for_each_tile(part, rows_of_tile);
-  digilap::detail::resize_on_huge_pages(y, part.rows, b);
-  for (Eigen::Index it = 0; it < part.rows; ++it) y.row(part.grid.items[static_cast<std::size_t>(it)]) = yt.col(it).head(b).transpose();
+  const Eigen::MatrixXd& sums = received(part, z, image, nullptr);
+  // y_i = s_i (sum_j g_ij mu_j x_j - sum_i x_i), s_i = mu_i (A) or 1 + g_i (L): the assembled row.
+  digilap::detail::resize_on_huge_pages(y, n, b);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index it = 0; it < n; ++it) {
+    const Eigen::Index row = part.grid.items[static_cast<std::size_t>(it)];
+    const double scale = stiffness ? part.mass_in_grid[it] : part.row_scale[it], sum = part.row_sum[it];
+    for (Eigen::Index c = 0; c < b; ++c) y(row, c) = scale * (sums(c, it) - sum * x(row, c));
+  }
 }
 
 namespace {
@@ -518,7 +604,9 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
     return digilap::detail::dense_spectrum(-minus_a_dense, mass, count);
   }
   const Eigen::Index block = digilap::detail::lobpcg_block(n, count);
-  if (digilap::detail::lobpcg_bytes(n, block) + op.bytes() > o.memory_limit_bytes) {
+  // The products' own blocks (apply_part): z and up to kMaxLayersAhead + 1 images, the part's rows by the block.
+  const double product_bytes = (kMaxLayersAhead + 2.0) * static_cast<double>(rows) * static_cast<double>(padded_columns(block)) * sizeof(double);
+  if (digilap::detail::lobpcg_bytes(n, block) + op.bytes() + product_bytes > o.memory_limit_bytes) {
     std::ostringstream msg;
     msg << "smallest_eigenpairs (matrix-free surfaces): LOBPCG's blocks would take about "
         << digilap::detail::lobpcg_bytes(n, block) / 1e9 << " GB, above the memory limit of " << o.memory_limit_bytes / 1e9

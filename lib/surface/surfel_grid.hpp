@@ -54,6 +54,13 @@ struct Grid {
   double cell = 1;
   int reach = 4;  // cells scanned on each side: ceil(cut / cell)
   Eigen::Index nx = 1, ny = 1, nz = 1;
+  // The cells' order: by `axis[2]` (the slowest), then axis[1], then axis[0] (the fastest, whose
+  // cells are contiguous in the item order). z, y, x unless built with longest_slowest.
+  int axis[3] = {0, 1, 2};
+  Eigen::Index count(int a) const { return a == 0 ? nx : a == 1 ? ny : nz; }
+  /// Layers of cells along the slowest axis, and the cells of one.
+  Eigen::Index layers() const { return count(axis[2]); }
+  Eigen::Index cells_per_layer() const { return count(axis[0]) * count(axis[1]); }
   std::vector<Eigen::Index> start, items;
   std::vector<double> xs, ys, zs;
 
@@ -61,12 +68,21 @@ struct Grid {
   // intrinsic distance instead of the chord; they are kept in the item order too.
   std::vector<double> nxs, nys, nzs;
 
-  Grid(const Eigen::MatrixX3d& p, double cut, const Eigen::MatrixX3d* normals = nullptr, double cells_per_cut = 4) {
+  // longest_slowest: the slowest axis along the points' longest extent, so that there are more
+  // layers (the matrix-free products go layer by layer).
+  Grid(const Eigen::MatrixX3d& p, double cut, const Eigen::MatrixX3d* normals = nullptr, double cells_per_cut = 4,
+       bool longest_slowest = false) {
     const Eigen::Index n = p.rows();
     origin = p.colwise().minCoeff().transpose();
     const Eigen::Vector3d extent = p.colwise().maxCoeff().transpose() - origin;
     cell = cut / cells_per_cut;
     while ((extent.x() / cell + 1) * (extent.y() / cell + 1) * (extent.z() / cell + 1) > 8.0 * static_cast<double>(n) + 64) cell *= 2;
+    Eigen::Index longest = 2;
+    if (longest_slowest && n > 0 && extent.maxCoeff(&longest) > extent.z()) {  // z unless strictly shorter
+      for (int a = 0, k = 0; a < 3; ++a)
+        if (a != longest) axis[k++] = a;
+      axis[2] = static_cast<int>(longest);
+    }
     nx = static_cast<Eigen::Index>(extent.x() / cell) + 1;
     ny = static_cast<Eigen::Index>(extent.y() / cell) + 1;
     nz = static_cast<Eigen::Index>(extent.z() / cell) + 1;
@@ -115,31 +131,35 @@ struct Grid {
   Eigen::Index index(double v, double o, Eigen::Index count) const {
     return std::clamp<Eigen::Index>(static_cast<Eigen::Index>((v - o) / cell), 0, count - 1);
   }
+  Eigen::Index cell_along(const Eigen::RowVector3d& q, int a) const { return index(q[a], origin[a], count(a)); }
   Eigen::Index cell_of(const Eigen::RowVector3d& q) const {
-    return (index(q.z(), origin.z(), nz) * ny + index(q.y(), origin.y(), ny)) * nx + index(q.x(), origin.x(), nx);
+    return (cell_along(q, axis[2]) * count(axis[1]) + cell_along(q, axis[1])) * count(axis[0]) + cell_along(q, axis[0]);
   }
   // f(first, last) for the item ranges that may hold points within `cut` of a point of the box
-  // [lo, hi]: per (y, z) row of cells, the x-cells of the ball's chord at the row's nearest
-  // point, widened by the box (a row's cells are contiguous in the item order). A point's
+  // [lo, hi]: per row of cells along the fastest axis (x unless built with longest_slowest), the
+  // cells of the ball's chord at the row's nearest point, widened by the box (a row's cells are
+  // contiguous in the item order). A point's
   // ranges are the box's with lo = hi; a box's hold every one of its points' candidates, in the
   // same order.
   template <class F>
   void for_candidates(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, double cut, F&& f) const {
-    const Eigen::Index y0 = index(lo.y(), origin.y(), ny), y1 = index(hi.y(), origin.y(), ny);
-    const Eigen::Index z0 = index(lo.z(), origin.z(), nz), z1 = index(hi.z(), origin.z(), nz);
-    auto gap = [&](Eigen::Index c, double v0, double v1, double o) {  // distance from [v0, v1] to cell c's interval
-      const double a = o + static_cast<double>(c) * cell;
-      return v1 < a ? a - v1 : std::max(0.0, v0 - (a + cell));
+    const int a = axis[0], b = axis[1], c = axis[2];  // fastest to slowest
+    const Eigen::Index na = count(a), nb = count(b), nc = count(c);
+    const Eigen::Index b0 = index(lo[b], origin[b], nb), b1 = index(hi[b], origin[b], nb);
+    const Eigen::Index c0 = index(lo[c], origin[c], nc), c1 = index(hi[c], origin[c], nc);
+    auto gap = [&](Eigen::Index k, double v0, double v1, double o) {  // distance from [v0, v1] to cell k's interval
+      const double from = o + static_cast<double>(k) * cell;
+      return v1 < from ? from - v1 : std::max(0.0, v0 - (from + cell));
     };
-    for (Eigen::Index z = std::max<Eigen::Index>(0, z0 - reach); z <= std::min(nz - 1, z1 + reach); ++z) {
-      const double gz = gap(z, lo.z(), hi.z(), origin.z());
-      for (Eigen::Index y = std::max<Eigen::Index>(0, y0 - reach); y <= std::min(ny - 1, y1 + reach); ++y) {
-        const double gy = gap(y, lo.y(), hi.y(), origin.y()), chord2 = cut * cut - gz * gz - gy * gy;
+    for (Eigen::Index kc = std::max<Eigen::Index>(0, c0 - reach); kc <= std::min(nc - 1, c1 + reach); ++kc) {
+      const double gc = gap(kc, lo[c], hi[c], origin[c]);
+      for (Eigen::Index kb = std::max<Eigen::Index>(0, b0 - reach); kb <= std::min(nb - 1, b1 + reach); ++kb) {
+        const double gb = gap(kb, lo[b], hi[b], origin[b]), chord2 = cut * cut - gc * gc - gb * gb;
         if (chord2 < 0) continue;
         const double chord = std::sqrt(chord2);
-        const Eigen::Index row = (z * ny + y) * nx;
-        f(start[static_cast<std::size_t>(row + index(lo.x() - chord, origin.x(), nx))],
-          start[static_cast<std::size_t>(row + index(hi.x() + chord, origin.x(), nx) + 1)]);
+        const Eigen::Index row = (kc * nb + kb) * na;
+        f(start[static_cast<std::size_t>(row + index(lo[a] - chord, origin[a], na))],
+          start[static_cast<std::size_t>(row + index(hi[a] + chord, origin[a], na) + 1)]);
       }
     }
   }

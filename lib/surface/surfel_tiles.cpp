@@ -61,13 +61,13 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
     for (std::size_t k = 0; k < count; ++k) out[k] = from[col[k]];
   };
   gather(grid.xs.data(), buffer.x), gather(grid.ys.data(), buffer.y), gather(grid.zs.data(), buffer.z);
-  gather(per_item, buffer.value);
+  if (per_item) gather(per_item, buffer.value);
   if (!grid.nxs.empty()) gather(grid.nxs.data(), buffer.nx), gather(grid.nys.data(), buffer.ny), gather(grid.nzs.data(), buffer.nz);
 }
 }  // namespace
 
 std::size_t gather_tile_candidates(const Grid& grid, Eigen::Index first, int rows, double cut, const double* per_item,
-                                   TileBuffer& buffer) {
+                                   TileBuffer& buffer, Eigen::Index from) {
   const auto at = [&](int r) {
     const auto it = static_cast<std::size_t>(first + r);
     return Eigen::Vector3d(grid.xs[it], grid.ys[it], grid.zs[it]);
@@ -79,6 +79,8 @@ std::size_t gather_tile_candidates(const Grid& grid, Eigen::Index first, int row
   const double reach = (cut + 0.5 * (hi - lo).norm()) * (1 + 1e-9);
   std::size_t count = 0;
   grid.for_candidates(lo, hi, cut, [&](Eigen::Index begin, Eigen::Index end) {
+    begin = std::max(begin, from);
+    if (end <= begin) return;
     buffer.reserve(count + static_cast<std::size_t>(end - begin));
     count = near_items(grid.xs.data(), grid.ys.data(), grid.zs.data(), static_cast<std::size_t>(begin), static_cast<std::size_t>(end),
                        centre.data(), reach * reach, buffer.chord2[0].data(), buffer.col.data(), count);

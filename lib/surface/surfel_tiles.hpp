@@ -59,8 +59,10 @@ struct TileBuffer {
 // The candidates of the tile [first, first + rows): the grid items within `cut` plus the tile's
 // radius of its centre (one distance each; every row's neighbours within `cut` among them), in
 // the grid's order, into buffer.col as grid positions, with their coordinates, normals (when the
-// grid has them) and per_item[col] in buffer.value. Returns their count.
+// grid has them) and per_item[col] in buffer.value (unless per_item is null). Only items from
+// `from` on: the products' upper-triangle pass takes each pair once, from its first item's tile.
+// Returns their count.
 std::size_t gather_tile_candidates(const Grid& grid, Eigen::Index first, int rows, double cut, const double* per_item,
-                                   TileBuffer& buffer);
+                                   TileBuffer& buffer, Eigen::Index from = 0);
 
 }  // namespace digilap::surface::detail

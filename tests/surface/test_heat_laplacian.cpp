@@ -5,6 +5,7 @@
 #include "on_threads.hpp"
 #include "support.hpp"
 #include "surface/intrinsic_kernel.hpp"
+#include "surface/surfel_tiles.hpp"
 
 #include "digilap/surface/ground_truth.hpp"
 
@@ -12,6 +13,8 @@
 
 #include <omp.h>
 #include <cstring>
+#include <random>
+#include <set>
 
 using namespace digilap;
 using namespace digilap::surface;
@@ -463,5 +466,62 @@ TEST(SurfaceIntrinsicKernel, CurvatureFromTilesEqualsTheDefinitionOverAllPairs) 
       EXPECT_LE(error, 1e-9) << name << ", " << cells_per_cut << " cells a cut: surfel " << worst << " K " << K[worst] << " against "
                              << truth[worst];
     }
+  }
+}
+
+TEST(SurfaceGrid, LongestAxisSlowestFindsEveryPairWithinItsReachInLayers) {
+  // The matrix-free products take each pair once, from the tile of its first item, and write
+  // its second item's image by how many layers of cells (along the grid's slowest axis) lie
+  // between them (matrix_free.cpp). So for either order of the cells: every pair within the
+  // cut among the tile's candidates from its first item on, those candidates in the grid's order,
+  // and no pair more than `reach` layers apart. Points in a flat box longest along x, whose grid
+  // then runs in layers along x (20 of them against 4 along z), and the same box stood on end
+  // (longest along z: the usual order stays), and a cube (a tie: the usual order too).
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1);
+  const int n = 3000;
+  for (int shape : {0, 1, 2}) {
+  const bool flat = shape == 0;
+  Eigen::MatrixX3d p(n, 3);
+  for (int i = 0; i < n; ++i) p.row(i) << 3 * u(rng), u(rng), 0.5 * u(rng);
+  if (shape == 1) p.col(0).swap(p.col(2));
+  if (shape == 2) {
+    p.col(0) /= 3, p.col(2) *= 2;
+    p.row(0).setZero(), p.row(1).setOnes();  // extents exactly 1 on every axis
+  }
+  const double cut = 0.3;
+  for (bool longest_slowest : {false, true}) {
+    const surface::detail::Grid grid(p, cut, nullptr, 2, longest_slowest);
+    const int slowest = longest_slowest && flat ? 0 : 2;
+    EXPECT_EQ(grid.axis[2], slowest);
+    EXPECT_NE(grid.axis[0], grid.axis[1]);
+    EXPECT_EQ(grid.axis[0] + grid.axis[1] + grid.axis[2], 3);  // a permutation of 0, 1, 2
+    EXPECT_EQ(grid.layers(), grid.count(slowest));
+    const surface::detail::Tiles tiles(grid);
+    surface::detail::TileBuffer buffer;
+    auto layer_of = [&](Eigen::Index item) {
+      Eigen::Index l = 0;
+      while (grid.start[static_cast<std::size_t>((l + 1) * grid.cells_per_layer())] <= item) ++l;
+      return l;
+    };
+    long missing = 0, too_far = 0, unsorted = 0, pairs = 0;
+    for (Eigen::Index tile = 0; tile < tiles.size(); ++tile) {
+      const Eigen::Index first = tiles.first(tile);
+      const std::size_t count = surface::detail::gather_tile_candidates(grid, first, tiles.rows(tile), cut, nullptr, buffer, first);
+      for (std::size_t k = 1; k < count; ++k) unsorted += buffer.col[k] <= buffer.col[k - 1];
+      const std::set<int> candidates(buffer.col.begin(), buffer.col.begin() + static_cast<std::ptrdiff_t>(count));
+      for (Eigen::Index i = first; i < first + tiles.rows(tile); ++i)
+        for (Eigen::Index j = i + 1; j < n; ++j) {
+          if (grid.distance2(Eigen::Vector3d(grid.xs[i], grid.ys[i], grid.zs[i]), j) > cut * cut) continue;
+          ++pairs;
+          missing += !candidates.count(static_cast<int>(j));
+          too_far += layer_of(j) > layer_of(i) + grid.reach;
+        }
+    }
+    EXPECT_GT(pairs, 100000);  // the premise: many pairs, across many layers
+    EXPECT_EQ(missing, 0) << longest_slowest;
+    EXPECT_EQ(too_far, 0) << longest_slowest;
+    EXPECT_EQ(unsorted, 0) << longest_slowest;
+  }
   }
 }

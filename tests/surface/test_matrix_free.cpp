@@ -52,7 +52,9 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
   // (sum_j a_ij (x_j - x_i) against sum_j a_ij x_j - x_i sum_j a_ij): a few ulps of |A| |x|
   // (the issue asks 1e-12).
   // Both kernels: the intrinsic one adds the normals' distance and the curvature factors.
-  for (const VoxelSet& set : {two_balls(), real_label()})
+  // Each pair is computed once and sent to both rows (matrix_free.cpp, apply_part); the rod spans
+  // many of the grid's layers, whose rows receive from the layers before theirs.
+  for (const VoxelSet& set : {two_balls(), real_label(), rod()})
   for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
     const Pipeline p = filtered(set);
     HeatLaplacianOptions options;
@@ -66,16 +68,17 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
     EXPECT_EQ(free.row_offset(), op.row_offset);
     EXPECT_EQ(free.part_t(), op.part_t);
     EXPECT_DOUBLE_EQ(free.t(), op.t);
-    // Every path of the products' kernel: unpadded (1, 7), padded to 8 (9), one pass of 32
-    // (30, LOBPCG's block of 20 eigenpairs), a pass of 32 and one of 8 (40).
-    for (Eigen::Index columns : {1, 7, 9, 30, 40}) {
-      const Eigen::MatrixXd x = block(op.rows(), columns);
-      Eigen::MatrixXd y;
-      free.apply_stiffness(x, y);
-      EXPECT_LE(product_error(op.A, x, y), 1e-14) << columns;
-      free.apply_laplacian(x, y);
-      EXPECT_LE(product_error(op.L, x, y), 1e-14) << columns;
-    }
+    // Every path of the products' kernel: unpadded (1, 7), padded to 8 (9), passes of 16 (30,
+    // LOBPCG's block of 20 eigenpairs: 16 + 8 + 8), and 40; the weights kept or computed.
+    for (const MatrixFreeSurfaceOperator* product : {&free, &lean})
+      for (Eigen::Index columns : {1, 7, 9, 30, 40}) {
+        const Eigen::MatrixXd x = block(op.rows(), columns);
+        Eigen::MatrixXd y;
+        product->apply_stiffness(x, y);
+        EXPECT_LE(product_error(op.A, x, y), 1e-14) << columns << (product == &free ? " kept" : " lean");
+        product->apply_laplacian(x, y);
+        EXPECT_LE(product_error(op.L, x, y), 1e-14) << columns;
+      }
     EXPECT_LE((free.stiffness_diagonal() - op.A.diagonal()).cwiseAbs().maxCoeff(), 1e-14 * op.A.diagonal().cwiseAbs().maxCoeff());
     // Without its weights kept, O(N): a twentieth of the matrices.
     EXPECT_LT(lean.bytes(), 0.05 * heat_laplacian_bytes(static_cast<std::size_t>(op.A.nonZeros()), static_cast<std::size_t>(op.rows()), true));
@@ -83,13 +86,19 @@ TEST(MatrixFreeSurface, ProductsEqualTheAssembledOperator) {
 }
 
 TEST(MatrixFreeSurface, ProductsBitwiseIndependentOfThreads) {
+  // A pair's kernel value goes to both of its rows, from whichever thread has the layer of its
+  // first row: the rod's many layers, with the weights computed (stored_weights_bytes = 0) or
+  // kept, give the same bits on 1 and 2 threads.
+  for (const VoxelSet& set : {two_balls(), rod()})
+  for (double kept_bytes : {0.0, 32.0 * 1024 * 1024})
   for (SurfaceKernel kernel : {SurfaceKernel::Chord, SurfaceKernel::Intrinsic}) {
-  const Pipeline p = filtered(two_balls());
+  const Pipeline p = filtered(set);
   HeatLaplacianOptions options;
   options.surface_kernel = kernel;
+  options.stored_weights_bytes = kept_bytes;
   const MatrixFreeSurfaceOperator free = on_threads(1, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
   const MatrixFreeSurfaceOperator built_on_two = on_threads(2, [&] { return MatrixFreeSurfaceOperator(p.surfels, p.mu, options); });
-  for (Eigen::Index columns : {5, 30}) {  // unpadded and padded blocks
+  for (Eigen::Index columns : {1, 5, 30}) {  // unpadded and padded blocks
     const Eigen::MatrixXd x = block(free.rows(), columns);
     Eigen::MatrixXd other;
     built_on_two.apply_stiffness(x, other);
