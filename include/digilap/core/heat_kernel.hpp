@@ -63,9 +63,10 @@ struct HeatLaplacianOptions {
   double memory_limit_bytes = 8.0 * 1024 * 1024 * 1024;
   /// Matrix-free surface operators only: keep the kernel's weights when all of them take at
   /// most this (bytes; 0: never), so that products stop recomputing distances and Gaussians
-  /// (the same bits). Real labels fit (JHU 1 mm's largest tract: 12 MB) and their spectra, many
-  /// products on small surfaces, gain; large smooth surfaces (a torus at h = 0.025: 390 MB)
-  /// stay in O(N) memory. Never more than a quarter of memory_limit_bytes.
+  /// (the same bits). Each pair is kept once, about 8 bytes a nonzero of L: real labels fit
+  /// (JHU 1 mm's largest tract: 8 MB) and their spectra, many products on small surfaces, gain;
+  /// large smooth surfaces (a torus at h = 0.025, about 1,000 neighbours a row) stay in O(N)
+  /// memory. Never more than a quarter of memory_limit_bytes.
   double stored_weights_bytes = 32.0 * 1024 * 1024;
 };
 
