@@ -20,6 +20,7 @@
 #include <cmath>
 #include <sstream>
 #include <type_traits>
+#include <unordered_map>
 
 namespace digilap::surface {
 
@@ -32,13 +33,13 @@ constexpr double kCellsPerCut = 2;
 // One surface: its grid over its own centres (rows local to the surface) and its kernel. With
 // the intrinsic kernel, the grid holds the normals (in its item order, the queries' too), and
 // the weights' measures are mu (1 + g), each row scaled by its 1 + g (intrinsic_kernel.hpp).
-struct MatrixFreeSurfaceOperator::Part {
+struct detail::SurfacePart {
   Eigen::Index first = 0, rows = 0;
   detail::Grid grid;
   detail::Kernel kernel;
   Eigen::VectorXd mass_in_grid;    // the weights' measures in that order
   Eigen::VectorXd row_scale;       // 1 + g_i in that order (ones for the chord)
-  Part(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
+  SurfacePart(Eigen::Index first_, const Eigen::MatrixX3d& positions, const detail::Kernel& k, const Eigen::VectorXd& mass,
        const Eigen::MatrixX3d* normals_)
       : first(first_), rows(positions.rows()), grid(positions, k.cut, normals_, kCellsPerCut, true), kernel(k) {
     Eigen::VectorXd factor = Eigen::VectorXd::Ones(rows);
@@ -376,6 +377,50 @@ double store_weights(Part& part, const std::vector<std::size_t>& counts, double 
   return stored.bytes();
 }
 
+// What a part's products need besides its grid: its layers, and each row's sum of weights,
+// sum_j g_ij mu_j, from the products' own loop on mu (the diagonal then cancels the products'
+// constant part to rounding), which also counts each tile's candidates (for store_weights).
+void prepare_products(detail::SurfacePart& part, std::vector<std::size_t>* candidates) {
+  part.find_layers();
+  std::vector<Eigen::MatrixXd> image;
+  const Eigen::MatrixXd& sums = received(part, part.mass_in_grid.transpose(), image, candidates);
+  part.row_sum = sums.row(0).transpose();
+}
+
+// Y = A X (stiffness) or L X on one part, X and Y holding its rows.
+void part_product(const detail::SurfacePart& part, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) {
+  if (x.rows() != part.rows)
+    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
+                std::to_string(part.rows));
+  const Eigen::Index b = x.cols(), n = part.rows;
+  // z = mu x, each row's b values contiguous (the inner loop runs over them), from 8 on padded
+  // with zeros to a multiple of 8, rows in the grid's order (a row's neighbours are then a few
+  // runs of memory).
+  const Eigen::Index padded = padded_columns(b);
+  // The blocks are the part's own (SurfacePart::scratch_z), or, when they are in use, fresh ones on huge
+  // pages, asked for before they are written (faulting 4 KiB pages in was about a tenth of a
+  // torus's spectrum at h = 0.025, 67,000 faults; docs/benchmarks.md).
+  std::unique_lock<std::mutex> scratch(part.scratch_mutex, std::try_to_lock);
+  Eigen::MatrixXd own_z;
+  std::vector<Eigen::MatrixXd> own_image;
+  Eigen::MatrixXd& z = scratch.owns_lock() ? part.scratch_z : own_z;
+  std::vector<Eigen::MatrixXd>& image = scratch.owns_lock() ? part.scratch_image : own_image;
+  digilap::detail::resize_on_huge_pages(z, padded, n);
+  for (Eigen::Index it = 0; it < n; ++it) {
+    z.col(it).head(b) = part.mass_in_grid[it] * x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
+    z.col(it).tail(padded - b).setZero();
+  }
+  const Eigen::MatrixXd& sums = received(part, z, image, nullptr);
+  // y_i = s_i (sum_j g_ij mu_j x_j - sum_i x_i), s_i = mu_i (A) or 1 + g_i (L): the assembled row.
+  digilap::detail::resize_on_huge_pages(y, n, b);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index it = 0; it < n; ++it) {
+    const Eigen::Index row = part.grid.items[static_cast<std::size_t>(it)];
+    const double scale = stiffness ? part.mass_in_grid[it] : part.row_scale[it], sum = part.row_sum[it];
+    for (Eigen::Index c = 0; c < b; ++c) y(row, c) = scale * (sums(c, it) - sum * x(row, c));
+  }
+}
+
 }  // namespace
 
 MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, const SurfelMeasures& measures,
@@ -400,16 +445,10 @@ MatrixFreeSurfaceOperator::MatrixFreeSurfaceOperator(const SurfelSet& surfels, c
   for (std::size_t p = 0; p + 1 < row_offset_.size(); ++p) {
     const Eigen::Index first = row_offset_[p], rows = row_offset_[p + 1] - first;
     const Eigen::MatrixX3d normals = intrinsic ? Eigen::MatrixX3d(measures.normals.middleRows(first, rows)) : Eigen::MatrixX3d();
-    part_.push_back(std::make_unique<Part>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
-    Part& part = *part_.back();
-    // Each row's sum of weights, sum_j g_ij mu_j: the products' own loop on mu (the diagonal
-    // then cancels the products' constant part to rounding), which also counts each tile's
-    // candidates for store_weights.
-    part.find_layers();
+    part_.push_back(std::make_unique<detail::SurfacePart>(first, positions.middleRows(first, rows), layout.kernel[p], mass_, intrinsic ? &normals : nullptr));
+    detail::SurfacePart& part = *part_.back();
     std::vector<std::size_t> candidates;
-    std::vector<Eigen::MatrixXd> image;
-    const Eigen::MatrixXd& sums = received(part, part.mass_in_grid.transpose(), image, &candidates);
-    part.row_sum = sums.row(0).transpose();
+    prepare_products(part, &candidates);
     for (Eigen::Index it = 0; it < rows; ++it) {
       const Eigen::Index i = first + part.grid.items[static_cast<std::size_t>(it)];
       l_row_sums_[i] = part.row_scale[it] * part.row_sum[it];
@@ -436,38 +475,12 @@ double MatrixFreeSurfaceOperator::bytes() const {
 }
 
 void MatrixFreeSurfaceOperator::apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const {
+  part_product(part(p), x, y, stiffness);
+}
+
+const detail::SurfacePart& MatrixFreeSurfaceOperator::part(std::size_t p) const {
   if (p >= part_.size()) throw Error("MatrixFreeSurfaceOperator: surface " + std::to_string(p) + " does not exist");
-  const Part& part = *part_[p];
-  if (x.rows() != part.rows)
-    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
-                std::to_string(part.rows));
-  const Eigen::Index b = x.cols(), n = part.rows;
-  // z = mu x, each row's b values contiguous (the inner loop runs over them), from 8 on padded
-  // with zeros to a multiple of 8, rows in the grid's order (a row's neighbours are then a few
-  // runs of memory).
-  const Eigen::Index padded = padded_columns(b);
-  // The blocks are the part's own (Part::scratch_z), or, when they are in use, fresh ones on huge
-  // pages, asked for before they are written (faulting 4 KiB pages in was about a tenth of a
-  // torus's spectrum at h = 0.025, 67,000 faults; docs/benchmarks.md).
-  std::unique_lock<std::mutex> scratch(part.scratch_mutex, std::try_to_lock);
-  Eigen::MatrixXd own_z;
-  std::vector<Eigen::MatrixXd> own_image;
-  Eigen::MatrixXd& z = scratch.owns_lock() ? part.scratch_z : own_z;
-  std::vector<Eigen::MatrixXd>& image = scratch.owns_lock() ? part.scratch_image : own_image;
-  digilap::detail::resize_on_huge_pages(z, padded, n);
-  for (Eigen::Index it = 0; it < n; ++it) {
-    z.col(it).head(b) = part.mass_in_grid[it] * x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
-    z.col(it).tail(padded - b).setZero();
-  }
-  const Eigen::MatrixXd& sums = received(part, z, image, nullptr);
-  // y_i = s_i (sum_j g_ij mu_j x_j - sum_i x_i), s_i = mu_i (A) or 1 + g_i (L): the assembled row.
-  digilap::detail::resize_on_huge_pages(y, n, b);
-#pragma omp parallel for schedule(static)
-  for (Eigen::Index it = 0; it < n; ++it) {
-    const Eigen::Index row = part.grid.items[static_cast<std::size_t>(it)];
-    const double scale = stiffness ? part.mass_in_grid[it] : part.row_scale[it], sum = part.row_sum[it];
-    for (Eigen::Index c = 0; c < b; ++c) y(row, c) = scale * (sums(c, it) - sum * x(row, c));
-  }
+  return *part_[p];
 }
 
 namespace {
@@ -577,6 +590,105 @@ private:
   double scale_;  // s above
 };
 
+// LOBPCG's start on one surface's support from a coarse problem: the same kernel on aggregates
+// of the support (its surfels grouped by cells of kCoarseCell h and, with the intrinsic kernel
+// whose grid holds the normals, by their normal's dominant direction, so that the two sides of a
+// thin wall stay apart), each at its surfels' centroid with
+// their summed area and mean normal. It is a quadrature of the same heat operator on about a
+// quarter of the points with a twentieth of the pairs, and its eigenvalues are the surfels' own
+// within 0.1% (a torus at h = 0.025). Its `block` smallest eigenvectors, the guards' too, spread
+// back to the surfels (each takes its aggregate's value), are the start: LOBPCG's iterations
+// are set by how far the start is from the answer (docs/benchmarks.md: 16-17 iterations from a
+// random start, 11-12 from this one, on a torus and a sphere at h = 0.025). The guards matter:
+// with random ones the last wanted column, one of a pair that the count splits, took 3
+// iterations more alone. The coarse problem needs a kernel a few aggregates wide and a surface
+// large enough to pay for it (smooth surfaces at small h; not real labels at their length-scale
+// floor, where sqrt(t) < h). Returns an empty block when it does not apply or did not converge
+// (then the random start).
+constexpr double kCoarseCell = 2;   // aggregates: cells of 2 h, about 4.4 surfels each
+constexpr double kCoarseWidth = 1;  // sqrt(t) at least one cell
+constexpr Eigen::Index kCoarseMinRows = 5000;
+// The coarse eigenvectors need only be as close to the surfels' as the two problems are
+// (1e-8 instead: the same fine iterations, twice the coarse ones).
+constexpr double kCoarseTolerance = 1e-4;
+constexpr int kCoarseIterations = 100;
+
+Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p, const std::vector<Eigen::Index>& support,
+                             const Eigen::VectorXd& mass, Eigen::Index block) {
+  const detail::SurfacePart& fine = op.part(p);
+  const auto n = static_cast<Eigen::Index>(support.size());
+  const double cell = kCoarseCell * op.h(), t = fine.kernel.t;
+  if (n < kCoarseMinRows || std::sqrt(t) < kCoarseWidth * cell) return {};
+  const Eigen::Index first = op.row_offset()[p];
+  // Each row's normal, from the grid (which holds them in its own order) when the kernel has them.
+  Eigen::MatrixX3d normal = Eigen::MatrixX3d::Zero(fine.rows, 3);
+  for (std::size_t it = 0; fine.intrinsic() && it < fine.grid.items.size(); ++it)
+    normal.row(fine.grid.items[it]) << fine.grid.nxs[it], fine.grid.nys[it], fine.grid.nzs[it];
+  // Aggregates, numbered in the order of their first surfel (the same on any number of threads).
+  Eigen::Vector3d lo = op.positions().row(first + support[0]).transpose();
+  Eigen::Vector3d hi = lo;
+  for (const Eigen::Index r : support) {
+    lo = lo.cwiseMin(op.positions().row(first + r).transpose());
+    hi = hi.cwiseMax(op.positions().row(first + r).transpose());
+  }
+  if (((hi - lo) / cell).maxCoeff() >= double(1 << 20)) return {};  // the keys below hold 20 bits a coordinate
+  std::unordered_map<std::uint64_t, int> number;
+  std::vector<int> aggregate(static_cast<std::size_t>(n));
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::Index r = support[static_cast<std::size_t>(k)];
+    const Eigen::Vector3d at = (op.positions().row(first + r).transpose() - lo) / cell;  // >= 0, < 2^20
+    Eigen::Index axis = 0;
+    normal.row(r).cwiseAbs().maxCoeff(&axis);
+    const std::uint64_t key = (static_cast<std::uint64_t>(at.x()) << 43) | (static_cast<std::uint64_t>(at.y()) << 23) |
+                              (static_cast<std::uint64_t>(at.z()) << 3) | static_cast<std::uint64_t>(2 * axis + (normal(r, axis) > 0));
+    aggregate[static_cast<std::size_t>(k)] = number.emplace(key, static_cast<int>(number.size())).first->second;
+  }
+  const auto m = static_cast<Eigen::Index>(number.size());
+  if (m <= digilap::detail::kDenseRows || 2 * block + 1 > m) return {};
+  Eigen::MatrixX3d positions = Eigen::MatrixX3d::Zero(m, 3), normals = Eigen::MatrixX3d::Zero(m, 3);
+  Eigen::VectorXd area = Eigen::VectorXd::Zero(m);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::Index a = aggregate[static_cast<std::size_t>(k)], r = support[static_cast<std::size_t>(k)];
+    positions.row(a) += mass[k] * op.positions().row(first + r);
+    normals.row(a) += mass[k] * normal.row(r);
+    area[a] += mass[k];
+  }
+  for (Eigen::Index a = 0; a < m; ++a) {
+    positions.row(a) /= area[a];
+    if (fine.intrinsic()) normals.row(a).normalize();  // one dominant direction: the sum never cancels
+  }
+  detail::SurfacePart coarse(0, positions, fine.kernel, area, fine.intrinsic() ? &normals : nullptr);
+  prepare_products(coarse, nullptr);
+  // C = M^(-1/2) (-A) M^(-1/2) on the aggregates, its bound c and preconditioner as on the surfels.
+  const Eigen::VectorXd s = area.cwiseSqrt().cwiseInverse();
+  double c = 0;
+  for (std::size_t it = 0; it < coarse.grid.items.size(); ++it) {
+    const auto at = static_cast<Eigen::Index>(it);
+    c = std::max(c, 2 * coarse.mass_in_grid[at] * coarse.row_sum[at] / area[coarse.grid.items[it]]);
+  }
+  Eigen::MatrixXd scaled;
+  auto apply_c = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
+    scaled = s.asDiagonal() * x;
+    part_product(coarse, scaled, y, true);
+    y = -(s.asDiagonal() * y);
+  };
+  const GraphPreconditioner preconditioner(positions, area, cell, t, fine.kernel.cut);
+  const auto wanted = static_cast<int>(block);
+  const digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
+      apply_c, [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); },
+      digilap::detail::lobpcg_start(m, digilap::detail::lobpcg_block(m, wanted)), wanted, kCoarseTolerance * c, kCoarseIterations,
+      nullptr);
+  if (!result.converged) return {};
+  // The aggregates' eigenvectors u = S y, each surfel taking its aggregate's, in the symmetric
+  // form M^(1/2) u of the surfels' problem.
+  Eigen::MatrixXd start(n, block);
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::Index a = aggregate[static_cast<std::size_t>(k)];
+    start.row(k) = std::sqrt(mass[k]) * s[a] * result.vectors.row(a);
+  }
+  return start;
+}
+
 // One surface's spectrum on the rows of positive area (`support`, local to the surface).
 Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const std::vector<Eigen::Index>& support, int count,
                        const SpectrumOptions& o) {
@@ -630,9 +742,11 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
   // sides) it stalls: after 150 iterations, the unpreconditioned iteration the assembled
   // operator uses takes over, from the start again.
   const int preconditioned_iterations = std::min(o.max_iterations, 150);
+  Eigen::MatrixXd start = o.coarse_start ? coarse_start(op, p, support, mass, block) : Eigen::MatrixXd();
+  if (start.size() == 0) start = digilap::detail::lobpcg_start(n, block);
   digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
-      apply_c, [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); },
-      digilap::detail::lobpcg_start(n, block), count, o.tolerance * c, preconditioned_iterations, o.progress);
+      apply_c, [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); }, std::move(start), count,
+      o.tolerance * c, preconditioned_iterations, o.progress);
   if (!result.converged) {
     const int spent = result.products;
     result = digilap::detail::lobpcg(

@@ -25,6 +25,10 @@
 
 namespace digilap::surface {
 
+namespace detail {
+struct SurfacePart;  // one surface's grid, kernel and weights (lib/surface/matrix_free.cpp)
+}
+
 class MatrixFreeSurfaceOperator {
 public:
   /// The operator heat_laplacian(surfels, measures, options) would assemble: the same parts,
@@ -61,10 +65,11 @@ public:
   void apply_laplacian(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const;
   /// The same on surface p alone: X and Y hold its rows only (the operator is block-diagonal).
   void apply_part(std::size_t p, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) const;
+  /// Surface p's internals (the library's own use: its spectrum's coarse start).
+  const detail::SurfacePart& part(std::size_t p) const;
 
 private:
-  struct Part;
-  std::vector<std::unique_ptr<Part>> part_;
+  std::vector<std::unique_ptr<detail::SurfacePart>> part_;
   Eigen::MatrixX3d positions_;
   Eigen::VectorXd mass_, a_diagonal_, l_row_sums_;
   std::vector<Eigen::Index> row_offset_;
@@ -77,7 +82,9 @@ private:
 /// Laplacian of edge-adjacent surfels (7 nonzeros a row, factorized once): the heat operator's
 /// eigenvalues are (1 - e^(-lambda t)) / t ~ lambda / (1 + lambda t), whose inverse is
 /// 1 / lambda + t, so T C stays within a small factor of 1 over the whole spectrum and LOBPCG
-/// needs a third of the products it needs unpreconditioned. With the conventions of smallest_eigenpairs(const HeatOperator&): eigenvectors
+/// needs a third of the products it needs unpreconditioned. On large smooth surfaces it starts
+/// from the eigenvectors of the same kernel on aggregates of about 2 x 2 surfels
+/// (SpectrumOptions::coarse_start). With the conventions of smallest_eigenpairs(const HeatOperator&): eigenvectors
 /// M-orthonormal, zero-area surfels given the heat-kernel average of their neighbours,
 /// laplace_beltrami per surface's t. The same eigenvalues as the assembled operator's to the
 /// solver's tolerance; where zero-area surfels cut a surface, each piece is solved on its own
