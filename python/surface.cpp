@@ -135,10 +135,14 @@ void bind_surface(py::module_& m, py::module_& s) {
       .def_readonly("normals", &surface::SurfelNormals::normals)
       .def_readonly("length_scale", &surface::SurfelNormals::length_scale)
       .def_readonly("radius", &surface::SurfelNormals::radius);
-  s.def("ii_normals", [](const surface::VoxelSet& v, const surface::SurfelSet& f, double k_R, double l) {
-        return surface::ii_normals(v, f, {k_R, l});
+  s.def("ii_normals", [](const surface::VoxelSet& v, const surface::SurfelSet& f, double k_R, double l, bool remove_ball_anisotropy) {
+        surface::SurfaceNormalOptions o;
+        o.k_R = k_R, o.length_scale = l, o.remove_ball_anisotropy = remove_ball_anisotropy;
+        return surface::ii_normals(v, f, o);
       }, py::arg("voxels"), py::arg("surfels"), py::arg("k_R") = surface::SurfaceNormalOptions{}.k_R, py::arg("length_scale") = 0.0,
-      Release(), "II normals, ball radius R = k_R h^(1/3) l^(2/3) (l measured when 0).");
+      py::arg("remove_ball_anisotropy") = surface::SurfaceNormalOptions{}.remove_ball_anisotropy, Release(),
+      "II normals, ball radius R = k_R h^(1/3) l^(2/3) (l measured when 0; k_R = 0: from l / h in [1, 1.5]); "
+      "remove_ball_anisotropy=False: SPEC's plain covariance estimator.");
   s.def("exact_normals", [](const surface::Surface& surface, const surface::SurfelSet& f, double l) {
         return surface::exact_normals(surface, f, l);
       }, py::arg("surface"), py::arg("surfels"), py::arg("length_scale") = 0.0, Release(),

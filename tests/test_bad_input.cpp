@@ -218,7 +218,8 @@ const std::vector<Case> kCases = {
     // Issue 21: an explicit --kR 2 on a surface is 2 (it was taken for the unset default, 1):
     // R = 2 h^(1/3) with l = 1 is 0.928318 at h = 0.1.
     {"surface_explicit_kR_2", "operator", "--shape sphere --h 0.1 --kR 2 --length-scale 1 --out {dir}/kR2", "", true, "II radius R = 0.928318"},
-    {"surface_default_kR_1", "operator", "--shape sphere --h 0.1 --length-scale 1 --out {dir}/kR1", "", true, "II radius R = 0.464159"},
+    // The default is k_R from l / h: h^(1/3) = 0.464 (k_R = 1) < l / 2 = 0.5 < 1.5 h^(1/3), so R = l / 2.
+    {"surface_default_kR_adaptive", "operator", "--shape sphere --h 0.1 --length-scale 1 --out {dir}/kR1", "", true, "II radius R = 0.5,"},
     {"volume_min_size_alias", "operator", "--volume {data}/../fuzz/volume_corpus/single_voxel.npy --min-size 0 --out {dir}/one6", "", true, "N = 6 surfels"},
     // Issue 22: a real label whose thin parts give surfels of zero area (II normal orthogonal to
     // the surfel) has a spectrum, solved on the support of mu (JHU white-matter atlas, 2 mm, label 6).
@@ -254,7 +255,7 @@ const std::vector<Case> kCases = {
     // --normals picks the rows: with exact alone the table opens on an exact row (ii would come
     // first); with ii alone the table ends on the ii bias-corrected row (exact would follow).
     {"surface_convergence_exact_normals_only", "convergence", "--shape sphere --h 0.2 --matrix-free --normals exact --out {dir}/cne", "", true, "|---|---|---|---|---|---|---|---|\n| 0.2 | exact | L | 462 | (matrix-free) |"},
-    {"surface_convergence_ii_normals_only", "convergence", "--shape sphere --h 0.2 --matrix-free --bias-correction --normals ii --out {dir}/cni", "", true, "| 0.2 | ii | bias-corrected | 462 | (matrix-free) | 0.8 | 0.0254 | 18.008% |\n\n| normals |"},
+    {"surface_convergence_ii_normals_only", "convergence", "--shape sphere --h 0.2 --matrix-free --bias-correction --normals ii --out {dir}/cni", "", true, "| 0.2 | ii | bias-corrected | 462 | (matrix-free) | 0.8 | 0.0254 | 16.389% |\n\n| normals |"},
     {"surface_convergence_bad_normals", "convergence", "--shape sphere --normals true", "", false, "--normals"},
     {"curve_convergence_normals", "convergence", "--shape flower --normals ii", "", false, "--normals is for surfaces here"},
     {"curve_convergence_bias_correction", "convergence", "--shape flower --bias-correction", "", false, "--bias-correction is for surfaces here"},

@@ -49,7 +49,7 @@ void add_front_end_options(CLI::App& app, FrontEndOptions& o, bool with_h) {
   app.add_option("--min-size,--min-linels", o.min_linels,
                  "Images and volumes: drop contours with fewer linels, surfaces with fewer surfels")
       ->capture_default_str();
-  app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->default_str("2 (curves), 1 (surfaces)");
+  app.add_option("--kR", o.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(kPositiveFinite)->default_str("2 (curves), 1 to 1.5 by l / h (surfaces)");
   app.add_option("--length-scale", o.length_scale,
                  "Length scale l of R and of the default t (0: measured on the shape's pixels, a robust small "
                  "radius of curvature; 1: the former R = kR h^(1/3), t = ct h^(2/3))")

@@ -77,8 +77,10 @@ int surface_convergence(const std::string& spec, const std::string& function, st
     progress.bar("sweep", static_cast<double>(s + 1) / static_cast<double>(steps.size()));
   }
   progress.end_bar();
-  std::printf("# %s, g = %s, R = %g h^(1/3) l^(2/3), t = %g h^(2/3) l^(4/3), k = %g, l %s\n", shape->name().c_str(),
-              function.c_str(), kR, base.c_t, base.k, length_scale > 0 ? "given" : "measured at each h");
+  const std::string k_R_text = kR > 0 ? std::to_string(kR) : "clamp((l/h)^(1/3)/2, 1, 1.5)";
+  std::printf("# %s, g = %s, R = k_R h^(1/3) l^(2/3) with k_R = %s, t = %g h^(2/3) l^(4/3), k = %g, l %s\n",
+              shape->name().c_str(), function.c_str(), k_R_text.c_str(), base.c_t, base.k,
+              length_scale > 0 ? "given" : "measured at each h");
   std::printf("| h | normals | estimate | N | nnz | l | t | rel max err |\n|---|---|---|---|---|---|---|---|\n");
   for (const Row& r : rows)
     std::printf("| %g | %s | %s | %ld | %s | %.3g | %.3g | %.3f%% |\n", r.h, r.variant.c_str(), r.estimate.c_str(),
@@ -160,7 +162,7 @@ int main(int argc, char** argv) {
                        ->capture_default_str()
                        ->expected(1, 100);
   app.add_option("--operators", operators, "Operators to compare: " + variants)->capture_default_str()->expected(1, 20);
-  app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(CLI::PositiveNumber)->default_str("2 (curves), 1 (surfaces)");
+  app.add_option("--kR", k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(CLI::PositiveNumber)->default_str("2 (curves), 1 to 1.5 by l / h (surfaces)");
   app.add_option("--ct", base.c_t, "Heat time t = ct h^(2/3) l^(4/3)")->capture_default_str();
   app.add_option("--length-scale", length_scale,
                  "Length scale l (0: measured at each h on the pixels; 1: the former t = ct h^(2/3), R = kR h^(1/3))")

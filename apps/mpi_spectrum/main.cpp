@@ -252,7 +252,7 @@ int main(int argc, char** argv) {
   app.add_option("--h", o.surface.volume.h, "Grid step h (default: the file's voxel spacing; 1 for .npy)")->check(CLI::PositiveNumber);
   app.add_option("--min-size", o.surface.min_surfels, "Drop surfaces with fewer surfels")->capture_default_str();
   app.add_flag("--largest", o.surface.largest_only, "Keep the largest surface only");
-  app.add_option("--kR", o.surface.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(CLI::PositiveNumber)->capture_default_str();
+  app.add_option("--kR", o.surface.k_R, "II radius constant: R = kR h^(1/3) l^(2/3)")->check(CLI::PositiveNumber)->default_str("1 to 1.5 by l / h");
   app.add_option("--length-scale", o.surface.length_scale, "Length scale l (0: measured, as digilap-spectrum does)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

@@ -128,7 +128,7 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
   const Stages stages{ranks, o.quiet};
   if (o.op.couple_surfaces) throw Error("distributed_surface_operator: couple_surfaces is not available across ranks");
   if (o.op.richardson) throw Error("heat_laplacian (surfaces): Richardson extrapolation is not available in 3D");
-  require_positive("distributed_surface_operator: k_R", o.k_R);
+  if (o.k_R != 0) require_positive("distributed_surface_operator: k_R", o.k_R);
   require_positive("distributed_surface_operator: k", o.op.k);
   if (o.length_scale != 0) require_positive("distributed_surface_operator: length_scale", o.length_scale);
   const surface::VolumeInfo info = on_every_rank(ranks, [&] { return surface::read_volume_info(path, o.volume); });
@@ -311,7 +311,7 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
     stages.done("length scale l = " + std::to_string(l) + " from " + std::to_string(surface_of.size()) + " samples");
   }
   out.length_scale = l;
-  out.normal_radius = o.k_R * std::cbrt(h) * std::pow(l, 2.0 / 3.0);
+  out.normal_radius = surface::ii_ball_radius(o.k_R, h, l);
   const double rho = out.normal_radius / h;
   const double diameter = 2 * std::cbrt(3.0 * static_cast<double>(voxels_total) / (4 * kPi)) + 2;
   if (rho > 2 * diameter) {

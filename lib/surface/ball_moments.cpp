@@ -52,6 +52,17 @@ BallRows::BallRows(double rho) : rho_(rho) {
       rows_[static_cast<std::size_t>(axis)].push_back(
           {static_cast<std::int32_t>(j), static_cast<std::int32_t>(k), static_cast<std::int32_t>(lo), static_cast<std::int32_t>(hi)});
     });
+    // The whole ball's covariance about its centre (X, Y, Z) / 2, summed row by row.
+    double n = 0;
+    Eigen::Matrix3d second = Eigen::Matrix3d::Zero();
+    for (const Row& r : rows_[static_cast<std::size_t>(axis)])
+      for (std::int64_t i = r.lo; i <= r.hi; ++i) {
+        const Eigen::Vector3d p(static_cast<double>(i) - 0.5 * static_cast<double>(X), r.dj - 0.5 * static_cast<double>(Y),
+                                r.dk - 0.5 * static_cast<double>(Z));
+        second += p * p.transpose(), n += 1;
+      }
+    const Eigen::Matrix3d covariance = n > 0 ? Eigen::Matrix3d(second / n) : Eigen::Matrix3d::Zero();
+    anisotropy_[static_cast<std::size_t>(axis)] = covariance - covariance.trace() / 3 * Eigen::Matrix3d::Identity();
   }
 }
 

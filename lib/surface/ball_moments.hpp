@@ -33,6 +33,9 @@ public:
   Moments moments(const VoxelSet& set, const Surfel& f) const;
   /// Their count alone (the II mean curvature's volume): moments(set, f).n.
   std::int64_t count(const VoxelSet& set, const Surfel& f) const;
+  /// The deviatoric part D = C - tr(C) / 3 I of the covariance C of all the voxel centres in the
+  /// ball around a surfel of this axis: the direction the digital ball has (0 for a round ball).
+  const Eigen::Matrix3d& anisotropy(int axis) const { return anisotropy_[static_cast<std::size_t>(axis)]; }
 
 private:
   template <typename RowFunction>
@@ -43,6 +46,7 @@ private:
   };
   double rho_;
   std::array<std::vector<Row>, 3> rows_;  // by the surfel's axis
+  std::array<Eigen::Matrix3d, 3> anisotropy_;
 };
 
 /// Doubled coordinates of a surfel's centre.

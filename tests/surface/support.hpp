@@ -37,12 +37,12 @@ struct Pipeline {
 };
 
 // The reference computation's parameters: t = c_t h^(2/3) (c_t = 0.03), k = 6, the chord
-// kernel, II normals k_R = 1 (l = 1), or the exact normals.
+// kernel, SPEC §7's plain II normals k_R = 1 (l = 1), or the exact normals.
 inline Pipeline run(const Surface& s, double h, bool exact = false, double c_t = 0.03) {
   Pipeline p;
   p.voxels = digitize(s, h);
   p.surfels = extract_surfels(p.voxels);
-  p.mu = measures(p.surfels, exact ? exact_normals(s, p.surfels, 1.0) : ii_normals(p.voxels, p.surfels, {1.0, 1.0}));
+  p.mu = measures(p.surfels, exact ? exact_normals(s, p.surfels, 1.0) : ii_normals(p.voxels, p.surfels, {1.0, 1.0, 0.02, false}));
   HeatLaplacianOptions o;
   o.c_t = c_t;
   o.surface_kernel = SurfaceKernel::Chord;  // SPEC §7's, as the reference implementation

@@ -292,9 +292,9 @@ TEST(MatrixFreeSurface, BiasCorrectedEstimateEqualsTheAssembledOne) {
 TEST(MatrixFreeSurface, BiasCorrectionLowersTheErrorOfXSquaredOnTheSphere) {
   // SPEC §7's ground truth: g = x^2 on the unit sphere (centre off the lattice), defaults
   // (intrinsic kernel, l measured). L g carries the kernel's bias (t/2) Delta^2 g = 18 t (x^2 -
-  // 1/3), about half of its max error; L_c g removes it. Measured: 12.6% -> 8.4% at h = 0.1,
-  // 7.7% -> 5.0% at h = 0.05 (2.4% against 4.3% at 0.025, docs/accuracy.md): asserted with
-  // a margin of a tenth.
+  // 1/3), about half of its max error; L_c g removes it. Measured (normals without the digital
+  // ball's anisotropy, 2026-12-06): 13.2% -> 9.3% at h = 0.1, 7.4% -> 4.6% at h = 0.05 (2.4%
+  // against 4.3% at 0.025, docs/accuracy.md): asserted with a margin of a tenth.
   auto sphere = make_surface("sphere");
   sphere->set_pose(kCentre, Eigen::Matrix3d::Identity());
   std::vector<double> corrected_errors;
@@ -311,8 +311,8 @@ TEST(MatrixFreeSurface, BiasCorrectionLowersTheErrorOfXSquaredOnTheSphere) {
     EXPECT_LE(corrected, 0.75 * plain) << "h = " << h;
     corrected_errors.push_back(corrected);
   }
-  EXPECT_LE(corrected_errors[0], 0.092);
-  EXPECT_LE(corrected_errors[1], 0.055);
+  EXPECT_LE(corrected_errors[0], 0.103);
+  EXPECT_LE(corrected_errors[1], 0.051);
 }
 
 TEST(MatrixFreeSurface, BadRequestsAreRefused) {

@@ -36,7 +36,7 @@ struct DistributedSurfaceOptions {
   surface::VolumeOptions volume;  ///< label or threshold, h, size limit
   std::size_t min_surfels = 0;    ///< drop the surfaces with fewer surfels (--min-size)
   bool largest_only = false;      ///< keep only the largest surface (--largest)
-  double k_R = surface::SurfaceNormalOptions{}.k_R;  ///< II radius constant (the surfaces' default)
+  double k_R = surface::SurfaceNormalOptions{}.k_R;  ///< II radius constant (0: the surfaces' adaptive default)
   double length_scale = 0.0;      ///< l; 0 measures it as surface::length_scale does
   double length_quantile = 0.02;
   /// t, c_t, k, per_contour_time, memory_limit_bytes (per rank). couple_surfaces and
