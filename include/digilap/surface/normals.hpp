@@ -44,7 +44,8 @@ struct SurfaceNormalOptions {
 /// i.e. k_R = clamp((l / h)^(1/3) / 2, 1, 1.5). A wider ball averages the digitization's noise
 /// out of the normals (and so out of the measures, whose sum is the area), but must not reach
 /// across a thin part: below l / h = 8 voxels (thin tubes, the labels of an atlas) this is k_R = 1,
-/// from 27 voxels on k_R = 1.5 (docs/accuracy.md, "An II radius that grows with l / h").
+/// from 27 voxels on k_R = 1.5 (docs/accuracy.md, "The digital ball's anisotropy, removed; a
+/// radius from l / h").
 /// Throws digilap::Error for k_R < 0 or not finite, or h or l not > 0 and finite.
 double ii_ball_radius(double k_R, double h, double l);
 
