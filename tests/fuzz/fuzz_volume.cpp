@@ -19,6 +19,10 @@ digilap::surface::VoxelSet read(const std::uint8_t* data, std::size_t size, cons
   if (size >= 6 && std::memcmp(data, "\x93NUMPY", 6) == 0) return digilap::surface::decode_npy_volume(data, size, "fuzz", o);
   const bool gz = size >= 2 && data[0] == 0x1f && data[1] == 0x8b;
   const std::string path = "/tmp/digilap-fuzz-" + std::to_string(getpid()) + (gz ? ".nii.gz" : ".nii");
+  struct Removed {  // the file goes when the read ends, refused or not: no leftovers in /tmp
+    const std::string& path;
+    ~Removed() { std::remove(path.c_str()); }
+  } removed{path};
   std::FILE* f = std::fopen(path.c_str(), "wb");
   if (f == nullptr) __builtin_trap();
   std::fwrite(data, 1, size, f);
