@@ -108,10 +108,10 @@ namespace {
 using digilap::detail::Lanes8;
 using digilap::detail::Lanes8u;  // a neighbour's values need not start on 64 bytes
 
-// A product takes each pair of rows (i, j) once, from the tile (surfel_tiles.hpp: up to 4
+// A product takes each pair of rows (i, j) once, from the tile (surfel_tiles.hpp: up to 8
 // consecutive grid items of one cell, a few h apart) of the first of them in the grid's order:
 // the kernel's value g_ij goes into row i's sum and into row j's image, each loaded once for the
-// tile's 4 rows. Computing every pair from both rows, as the products did before, took twice the
+// tile's 8 rows. Computing every pair from both rows, as the products did before, took twice the
 // searches, distances and Gaussians, the larger part of a product at small h (a sphere at
 // h = 0.0125: a spectrum 35 s against 25 s; docs/benchmarks.md). Every sum runs in a fixed
 // order, whatever the thread that computes it (apply_part).
@@ -134,7 +134,8 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
 // images y_k += sum_r g_r[k] z_{i_r}, V * 8 columns from z, y and out on (z = mu x, every
 // row `stride` values). The candidates fall into `segments` runs, the s-th ending at end[s]
 // and written to target[s] (the layer of the tile, the next, the one after). The rows' sums
-// and z_{i_r} are held in registers (4 V + 4 V of them).
+// and z_{i_r} are held in registers (R V + R V of them: with R = 8 and V = 2, 32, so the
+// compiler keeps some z_{i_r} in L1 instead; still the fastest, see symmetric_tile_rows).
 template <int R, int V>
 __attribute__((always_inline)) inline void symmetric_tile(const double* const* g, const int* col, const Eigen::Index* end, int segments,
                                                          double* const* target, const double* z, Eigen::Index stride,
@@ -227,10 +228,22 @@ __attribute__((always_inline)) inline void symmetric_narrow(const double* const*
 // The products' hot loop, for the `rows` rows of a tile: symmetric_rows from 8 columns on (padded
 // to a multiple of 8), symmetric_narrow below. Built for AVX-512, AVX2 and the baseline, chosen at
 // run time (the same CPU always runs the same build, so results do not depend on the threads).
+// A full tile's 8 rows go through each candidate's values together: each load of a neighbour's
+// z and image then serves 8 rows, not 4. Where a tile's neighbours' blocks outgrow the caches
+// (a sphere at h = 0.0125: 5,000 neighbours a row, 256 bytes each of z and of the image for 30
+// columns) the multiply-adds wait on those loads, and 30-column products took 2.5 s with 4-row
+// tiles against 1.7-1.9 s (an Intel Ice Lake server, 2 threads; docs/benchmarks.md). The other
+// sizes split into 4 rows and the rest, with fewer registers; so do the narrow products, whose
+// time is the kernel's values, and so does AVX2, whose 16 registers already hold 4 rows' sums
+// and values.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void symmetric_tile_rows(
     const double* const* g, int rows, const int* col, const Eigen::Index* end, int segments, double* const* target, const double* z,
     Eigen::Index b, const double* const* z_rows, double* const* out) {
   if (b < kLanes) {
+    if (rows > 4) {
+      symmetric_narrow<4>(g, col, end, segments, target, z, b, z_rows, out);
+      g += 4, z_rows += 4, out += 4, rows -= 4;
+    }
     switch (rows) {
       case 4: symmetric_narrow<4>(g, col, end, segments, target, z, b, z_rows, out); break;
       case 3: symmetric_narrow<3>(g, col, end, segments, target, z, b, z_rows, out); break;
@@ -238,6 +251,14 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
       default: symmetric_narrow<1>(g, col, end, segments, target, z, b, z_rows, out); break;
     }
     return;
+  }
+  if (rows == 8 && kWideVectors) {
+    symmetric_rows<8>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors);
+    return;
+  }
+  if (rows > 4) {
+    symmetric_rows<4>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors);
+    g += 4, z_rows += 4, out += 4, rows -= 4;
   }
   switch (rows) {
     case 4: symmetric_rows<4>(g, col, end, segments, target, z, b, z_rows, out, kWideVectors); break;

@@ -95,7 +95,7 @@ struct Grid {
     // Within a cell, items in Morton order of their position (at a 64th of the cell), ties by
     // row: consecutive items are then close in space in every direction (in row order they ran
     // along the surfels' scan line), so that a few consecutive rows share most neighbours (the
-    // matrix-free products take rows 4 at a time).
+    // matrix-free products take rows 8 at a time).
     std::vector<std::pair<std::uint32_t, Eigen::Index>> keyed;
     for (std::size_t c = 0; c + 1 < start.size(); ++c) {
       const auto first = static_cast<std::size_t>(start[c]), last = static_cast<std::size_t>(start[c + 1]);
