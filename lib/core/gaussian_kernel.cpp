@@ -68,7 +68,8 @@ void weights_of_chunk(double* chunk, double inv_4t, double scale) {
 
 // The same with an AVX-512 version first (8 values a vector): the matrix-free surface products
 // gained 8% from it with libmvec's exp; the curves' assembly lost 3-4% (euclidean distances,
-// 2 threads), so they keep the one above.
+// 2 threads), so they keep the one above (not measured again with this exp; both give the same
+// bits on an AVX-512 CPU, GaussianKernel.BothEntryPointsGiveTheSameBits).
 #if DIGILAP_X86_64_GCC
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #endif
