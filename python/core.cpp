@@ -51,6 +51,7 @@ void bind_core(py::module_& m) {
       .def_readonly("iterations", &Spectrum::iterations)
       .def_readonly("massless", &Spectrum::massless, "Rows of zero mass (off the support of mu).")
       .def_readonly("undefined_estimates", &Spectrum::undefined_estimates);
+  m.attr("EIGENVALUES_ONLY_TOLERANCE") = kEigenvaluesOnlyTolerance;  // digilap/core/spectrum.hpp
   m.def("smallest_eigenpairs", [](const HeatOperator& op, int count, double tolerance, int max_iterations) {
           return smallest_eigenpairs(op, spectrum_options(count, tolerance, max_iterations));
         },

@@ -22,7 +22,8 @@ struct LabelBatchOptions {
   Normalization normalize = Normalization::None;
   bool reweight = false;        ///< lambda_i / i for i >= 1 (ev0 stays)
   int count = 50;               ///< eigenvalues per structure
-  double tolerance = SpectrumOptions{}.tolerance;  ///< the eigen-solver's (SpectrumOptions::tolerance)
+  /// The eigen-solver's (SpectrumOptions::tolerance): the batch writes eigenvalues alone.
+  double tolerance = kEigenvaluesOnlyTolerance;
   bool matrix_free = false;     ///< products (surface::MatrixFreeSurfaceOperator) instead of the assembled operator
 };
 

@@ -47,6 +47,14 @@ enum class SpectrumMethod {
   Products,
 };
 
+/// The tolerance of runs that keep eigenvalues alone (digilap-spectrum --labels, Python
+/// surface.shape_dna): an eigenvalue errs by about the residual's square over its gap, so on
+/// every label of the JHU and Harvard-Oxford atlases the eigenvalues agree with the default's
+/// (1e-10) within 3e-11 relative, a few units in the last of the 12 digits spectra.csv prints,
+/// in a quarter to a third less time (docs/benchmarks.md). Eigenvectors keep the default: inside
+/// a multiplet that the digital surface splits by 1e-3 they err by the residual over that gap.
+constexpr double kEigenvaluesOnlyTolerance = 1e-8;
+
 struct SpectrumOptions {
   int count = 10;            ///< number of eigenpairs (smallest first)
   SpectrumMethod method = SpectrumMethod::Auto;  ///< explicit operators: see SpectrumMethod
