@@ -50,9 +50,8 @@ bool BlockLdlt::compute(const Eigen::SparseMatrix<double>& lower) {
   return true;
 }
 
-void BlockLdlt::solve(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-  const Eigen::Index n = x.rows(), b = x.cols(), groups = (b + 7) / 8;
-  y.resize(n, b);
+void BlockLdlt::solve_in_place(Eigen::Ref<Eigen::MatrixXd> y) const {
+  const Eigen::Index n = y.rows(), b = y.cols(), groups = (b + 7) / 8;
 #pragma omp parallel
   {
     std::vector<double> rows(8 * static_cast<std::size_t>(n));  // this thread's
@@ -62,7 +61,7 @@ void BlockLdlt::solve(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
       const Eigen::Index first = 8 * g, count = std::min<Eigen::Index>(8, b - first);
       for (Eigen::Index i = 0; i < n; ++i) {
         double* v = rows.data() + 8 * static_cast<std::size_t>(position_[static_cast<std::size_t>(i)]);
-        for (Eigen::Index c = 0; c < 8; ++c) v[c] = c < count ? x(i, first + c) : 0.0;
+        for (Eigen::Index c = 0; c < 8; ++c) v[c] = c < count ? y(i, first + c) : 0.0;
       }
       solve_lanes(start_.data(), row_.data(), value_.data(), inverse_d_.data(), n, z);
       for (Eigen::Index i = 0; i < n; ++i) {

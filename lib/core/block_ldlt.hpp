@@ -18,8 +18,9 @@ public:
   /// Factorizes the symmetric positive definite matrix whose lower triangle is `lower`;
   /// returns false when that fails (not positive definite).
   bool compute(const Eigen::SparseMatrix<double>& lower);
-  /// y = A^(-1) x, column by column, the columns in groups of 8 over the OpenMP threads.
-  void solve(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const;
+  /// y <- A^(-1) y, column by column, the columns in groups of 8 over the OpenMP threads (in
+  /// place: y is often a view of a solver's block, with no room for another).
+  void solve_in_place(Eigen::Ref<Eigen::MatrixXd> y) const;
 
 private:
   std::vector<int> start_, row_;  // L's strictly lower entries, column by column

@@ -23,6 +23,7 @@ namespace {
 // are built for SSE2), and the partial sums added in chunk order.
 constexpr Eigen::Index kChunkRows = 2048;
 using ConstBlock = Eigen::Ref<const Eigen::MatrixXd>;
+using Block = Eigen::Ref<Eigen::MatrixXd>;
 
 Eigen::Index chunk_count(Eigen::Index n) { return (n + kChunkRows - 1) / kChunkRows; }
 
@@ -76,9 +77,8 @@ Eigen::MatrixXd symmetric_gram(const ConstBlock& x, const ConstBlock& y, const s
   return sum;
 }
 
-// out = x c (out resized to x.rows() x c.cols(); not aliased with x)
-void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out) {
-  out.resize(x.rows(), c.cols());
+// out = x c (out: x.rows() x c.cols(); not aliased with x)
+void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Block out) {
   const Eigen::Index chunks = chunk_count(x.rows());
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < chunks; ++k) {
@@ -88,7 +88,7 @@ void combine(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out
 }
 
 // out -= x c (not aliased with x)
-void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::MatrixXd& out) {
+void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Block out) {
   const Eigen::Index chunks = chunk_count(x.rows());
 #pragma omp parallel for schedule(static)
   for (Eigen::Index k = 0; k < chunks; ++k) {
@@ -97,20 +97,24 @@ void subtract_combination(const ConstBlock& x, const Eigen::MatrixXd& c, Eigen::
   }
 }
 
-// The c.cols() columns of m from `first` on <- (its c.rows() columns from `first` on) c + add.
-// In place, chunk by chunk of rows: a chunk's product reads only its own rows, so it may
-// overwrite them (no N-row temporary to fault in and copy back).
-void combine_in_place(Eigen::MatrixXd& m, Eigen::Index first_col, const Eigen::MatrixXd& c, const Eigen::MatrixXd& add) {
+// The columns [first_col, first_col + new_cols) of m <- f(its columns [first_col, first_col +
+// old_cols)), in place, a chunk of rows at a time: f(old, out, scratch) gets a copy of the
+// chunk's old values, and what it writes to `out` (the chunk's new values) is copied back, so
+// the two ranges may overlap. A row's new values depend on its old ones only, so no N-row
+// temporary is needed (at N = 150,000 and 60 columns each is 72 MB). `scratch` is the thread's.
+template <typename F>
+void transform_columns(Eigen::MatrixXd& m, Eigen::Index first_col, Eigen::Index old_cols, Eigen::Index new_cols, const F& f) {
   const Eigen::Index chunks = chunk_count(m.rows());
 #pragma omp parallel
   {
-    Eigen::MatrixXd product;  // one chunk, reused by the thread
+    Eigen::MatrixXd old, out, scratch;  // one chunk's, reused by the thread
 #pragma omp for schedule(static)
     for (Eigen::Index k = 0; k < chunks; ++k) {
       const Eigen::Index first = k * kChunkRows, rows = std::min(kChunkRows, m.rows() - first);
-      product.resize(rows, c.cols());
-      tall_product(m.middleRows(first, rows).middleCols(first_col, c.rows()), c, product, false);
-      m.middleRows(first, rows).middleCols(first_col, c.cols()) = product + add.middleRows(first, rows);
+      old = m.block(first, first_col, rows, old_cols);
+      out.resize(rows, new_cols);
+      f(old, out, scratch);
+      m.block(first, first_col, rows, new_cols) = out;
     }
   }
 }
@@ -139,32 +143,34 @@ Eigen::MatrixXd orthonormal_coordinates(const Eigen::MatrixXd& gram) {
 // tolerances allowed (1e-14) the rounding of the residuals themselves is of this size.
 constexpr double kOrthonormal = 1e-13;
 
-// W made orthogonal to X and P (both orthonormal, P possibly empty) and orthonormal itself:
-// W -= X X^T W, W -= P P^T W, W <- W orthonormal_coordinates(W^T W), then again unless the first
-// pass already left X^T W, P^T W and W^T W - I below kOrthonormal. One pass leaves rounding of
-// the size of what it removed, so a second is needed when W was mostly in span[X P]; the check
-// costs half a pass, and the first pass was enough in 23 of the 28 iterations of JHU 1 mm
-// label 1 (1e-15 against X and P, up to 1.4e-13 from I; docs/benchmarks.md). Directions W only
-// repeats are dropped.
-void orthonormalize_against(const ConstBlock& x, const ConstBlock& p, Eigen::MatrixXd& w) {
-  Eigen::MatrixXd x_part = gram(x, w), p_part = p.cols() > 0 ? gram(p, w) : Eigen::MatrixXd();
-  for (int pass = 0; pass < 2 && w.cols() > 0; ++pass) {
-    subtract_combination(x, x_part, w);
-    if (p.cols() > 0) subtract_combination(p, p_part, w);
-    const Eigen::MatrixXd map = orthonormal_coordinates(gram(w, w));
-    Eigen::MatrixXd orthonormal;
-    combine(w, map, orthonormal);
-    w = std::move(orthonormal);
-    if (pass == 1 || w.cols() == 0) break;
-    x_part = gram(x, w);
-    if (p.cols() > 0) p_part = gram(p, w);
-    const Eigen::MatrixXd self = gram(w, w) - Eigen::MatrixXd::Identity(w.cols(), w.cols());
-    auto small = [](const Eigen::MatrixXd& m) { return m.size() == 0 || m.cwiseAbs().maxCoeff() <= kOrthonormal; };
-    if (small(x_part) && small(p_part) && small(self)) break;
+// The `width` columns of W (m's columns from `first`) made orthogonal to the basis B (orthonormal;
+// Q, X and P side by side, possibly empty) and orthonormal themselves: W -= B B^T W, W <- W
+// orthonormal_coordinates(W^T W), then again unless the first pass already left B^T W and
+// W^T W - I below kOrthonormal. One pass leaves rounding of the size of what it removed, so a
+// second is needed when W was mostly in span B; the check costs half a pass, and the first pass
+// was enough in 23 of the 28 iterations of JHU 1 mm label 1 (1e-15 against X and P, up to
+// 1.4e-13 from I; docs/benchmarks.md). Directions W only repeats are dropped: returns how many
+// columns are left (from `first` on).
+Eigen::Index orthonormalize_against(const ConstBlock& basis, Eigen::MatrixXd& m, Eigen::Index first, Eigen::Index width) {
+  Eigen::MatrixXd basis_part = basis.cols() > 0 ? gram(basis, m.middleCols(first, width)) : Eigen::MatrixXd();
+  for (int pass = 0; pass < 2 && width > 0; ++pass) {
+    if (basis.cols() > 0) subtract_combination(basis, basis_part, m.middleCols(first, width));
+    const Eigen::MatrixXd map = orthonormal_coordinates(gram(m.middleCols(first, width), m.middleCols(first, width)));
+    transform_columns(m, first, width, map.cols(), [&](const Eigen::MatrixXd& old, Eigen::MatrixXd& out, Eigen::MatrixXd&) {
+      tall_product(old, map, out, false);
+    });
+    width = map.cols();
+    if (pass == 1 || width == 0) break;
+    const auto w = m.middleCols(first, width);
+    if (basis.cols() > 0) basis_part = gram(basis, w);
+    const Eigen::MatrixXd self = gram(w, w) - Eigen::MatrixXd::Identity(width, width);
+    auto small = [](const Eigen::MatrixXd& x) { return x.size() == 0 || x.cwiseAbs().maxCoeff() <= kOrthonormal; };
+    if (small(basis_part) && small(self)) break;
   }
+  return width;
 }
 
-// The coordinates in S = [X W P] (orthonormal) of the next P: the W, P parts of the new X's
+// The coordinates in S = [X P W] (orthonormal) of the next P: the P, W parts of the new X's
 // columns `active` (rows bx.. of x_coordinates), made orthogonal to the new X in coordinates and
 // orthonormal (Householder QR of [x_coordinates | those parts], where the small matrices cost
 // nothing). P = S Q and C P = (C S) Q then agree to rounding, the next basis is orthonormal,
@@ -245,29 +251,30 @@ Eigen::MatrixXd lobpcg_start(Eigen::Index n, Eigen::Index b) {
 }
 
 LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::MatrixXd start, int count,
-                    double tolerance, int max_iterations, const std::function<void(int, double)>& progress) {
+                    double tolerance, int max_iterations, const std::function<void(int, double)>& progress, bool with_guards) {
   LobpcgResult result;
   const Eigen::Index n = start.rows(), b = start.cols();
   // Every N-row block is allocated once, here: at large N a fresh block per iteration cost
-  // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each).
-  // The basis lives in s and its image in cs as [Q | X | W | P]: Q the locked columns (below),
-  // X the active Ritz vectors, W and P this iteration's other directions. Once copied there, P
-  // and C P are free for the next P and C P, and the next X and C X are formed in place
-  // (11 blocks of N x b in all).
-  Eigen::MatrixXd s(n, 3 * b), cs(n, 3 * b), r(n, b), w(n, b), cw(n, b), p(n, b), cp(n, b);
-  for (Eigen::MatrixXd* m : {&s, &cs, &r, &w, &cw, &p, &cp})
-    advise_huge_pages(m->data(), sizeof(double) * static_cast<std::size_t>(m->size()));
-  apply_c(start, cw);
+  // more in first-touch page faults than the arithmetic (N = 7e5: about 250 MB each). The
+  // basis lives in s and its image in cs as [Q | X | P | W]: Q the locked columns (below), X the
+  // active Ritz vectors, P and W this iteration's other directions. W is written where it
+  // belongs (the preconditioner and the operator write into s and cs), and the next X and P
+  // replace the columns from X on, in place (transform_columns). r holds the residuals.
+  Eigen::MatrixXd s, cs, r;
+  auto allocate = [n](Eigen::MatrixXd& m, Eigen::Index cols) {
+    m.resize(n, cols);
+    advise_huge_pages(m.data(), sizeof(double) * static_cast<std::size_t>(m.size()));
+  };
+  allocate(r, b);
+  apply_c(start, r);
   result.products += static_cast<int>(b);
-  RitzPairs ritz = rayleigh_ritz(gram(start, start), gram(start, cw), b);
-  Eigen::Index bx = ritz.values.size();
-  combine(start, ritz.coordinates, w);
-  combine(cw, ritz.coordinates, p);
-  s.leftCols(bx) = w;
-  cs.leftCols(bx) = p;
-  p.resize(n, 0);  // no P in the first iteration
-  cp.resize(n, 0);
+  RitzPairs ritz = rayleigh_ritz(gram(start, start), gram(start, r), b);
+  Eigen::Index bx = ritz.values.size(), bp = 0;  // no P in the first iteration
+  allocate(s, 3 * b);
+  combine(start, ritz.coordinates, s.leftCols(bx));
   start.resize(0, 0);
+  allocate(cs, 3 * b);
+  combine(r, ritz.coordinates, cs.leftCols(bx));
   Eigen::VectorXd lambda = ritz.values;
   // Hard locking: the leading wanted Ritz pairs whose residuals met the tolerance leave the
   // iteration for good (Q, `locked` columns, their values and residuals kept). W stays
@@ -279,12 +286,8 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
   Eigen::VectorXd locked_values(count), locked_residuals(count), residual_norms;
   for (int iteration = 0;; ++iteration) {
     const Eigen::Index wanted = std::max<Eigen::Index>(count - locked, 0);
-    {
-      const auto x = s.middleCols(locked, bx), cx = cs.middleCols(locked, bx);
-      r.resize(n, bx);  // no-op unless Rayleigh-Ritz dropped directions
-      r.noalias() = cx - x * lambda.asDiagonal();
-    }
-    residual_norms = r.colwise().norm().transpose();
+    r.leftCols(bx).noalias() = cs.middleCols(locked, bx) - s.middleCols(locked, bx) * lambda.asDiagonal();
+    residual_norms = r.leftCols(bx).colwise().norm().transpose();
     result.iterations = iteration;
     const double worst_active = wanted > 0 ? residual_norms.head(std::min(wanted, bx)).maxCoeff() : 0.0;
     const double worst_locked = locked > 0 ? locked_residuals.head(locked).maxCoeff() : 0.0;
@@ -303,53 +306,57 @@ LobpcgResult lobpcg(const BlockMap& apply_c, const BlockMap& apply_t, Eigen::Mat
       lambda = lambda.tail(bx).eval();
     }
     // Soft locking: the active columns whose residual is already below the tolerance add no
-    // direction to W (their residuals are rounding noise) nor to the next P.
+    // direction to W (their residuals are rounding noise) nor to the next P. Their residuals
+    // leave r, the others moving left (column lock + active[c] >= c: read before written).
     std::vector<Eigen::Index> active;
     for (Eigen::Index c = 0; c < bx; ++c)
       if (residual_norms[lock + c] > tolerance) active.push_back(c);
-    if (lock > 0 || static_cast<Eigen::Index>(active.size()) < bx) {
-      Eigen::MatrixXd kept(n, static_cast<Eigen::Index>(active.size()));
-      for (std::size_t c = 0; c < active.size(); ++c) kept.col(static_cast<Eigen::Index>(c)) = r.col(lock + active[c]);
-      r = std::move(kept);
-    }
+    const auto ba = static_cast<Eigen::Index>(active.size());
+    for (Eigen::Index c = 0; c < ba; ++c)
+      if (lock + active[static_cast<std::size_t>(c)] != c) r.col(c) = r.col(lock + active[static_cast<std::size_t>(c)]);
     // Preconditioned residuals, made orthogonal to Q, X and P and orthonormal, then multiplied
-    // by C: the basis [X W P] is orthonormal and orthogonal to Q. Rayleigh-Ritz on a merely
+    // by C: the basis [X P W] is orthonormal and orthogonal to Q. Rayleigh-Ritz on a merely
     // independent basis (its Gram matrix inverted) lost 1e-12 directions on real labels as X
     // converged, and the iteration stalled at 100 times the tolerance (issue 23).
-    apply_t(r, w);
-    orthonormalize_against(s.leftCols(locked + bx), p, w);
-    apply_c(w, cw);
-    result.products += static_cast<int>(w.cols());
-    // Rayleigh-Ritz on [X, W, P], orthonormal: S^T C S alone (S^T S, its eigen-decomposition
+    const Eigen::Index at_w = locked + bx + bp;  // W's first column in s and cs
+    apply_t(r.leftCols(ba), s.middleCols(at_w, ba));
+    const Eigen::Index bw = orthonormalize_against(s.leftCols(at_w), s, at_w, ba);
+    apply_c(s.middleCols(at_w, bw), cs.middleCols(at_w, bw));
+    result.products += static_cast<int>(bw);
+    // Rayleigh-Ritz on [X, P, W], orthonormal: S^T C S alone (S^T S, its eigen-decomposition
     // and the map from it were a third of the time on small labels, where the dense algebra
     // outweighs the products). Should the columns' norms have drifted, S^T S is formed.
-    const Eigen::Index bw = w.cols(), bp = p.cols(), cols = bx + bw + bp;
-    s.middleCols(locked + bx, bw) = w;
-    cs.middleCols(locked + bx, bw) = cw;
-    s.middleCols(locked + bx + bw, bp) = p;
-    cs.middleCols(locked + bx + bw, bp) = cp;
-    const auto basis = s.middleCols(locked, cols), image = cs.middleCols(locked, cols);
-    const std::vector<Eigen::Index> ends{bx, bx + bw, cols};
-    if (unit_columns(basis)) ritz = rayleigh_ritz_orthonormal(symmetric_gram(basis, image, ends), b - locked);
-    else ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b - locked);
+    const Eigen::Index cols = bx + bp + bw;
+    const std::vector<Eigen::Index> ends{bx, bx + bp, cols};
+    {
+      const auto basis = s.middleCols(locked, cols), image = cs.middleCols(locked, cols);
+      if (unit_columns(basis)) ritz = rayleigh_ritz_orthonormal(symmetric_gram(basis, image, ends), b - locked);
+      else ritz = rayleigh_ritz(symmetric_gram(basis, basis, ends), symmetric_gram(basis, image, ends), b - locked);
+    }
+    // The next X (X c_x plus its P, W part) and the next P, from the same coordinates (so P and
+    // C P agree to rounding), over the columns from X on, in place.
     const Eigen::Index keep = ritz.values.size(), tail = cols - bx;
-    // The next P and C P from the same coordinates (they agree to rounding), then the new X
-    // and C X as X c_x + (their W, P part), in place.
     const Eigen::MatrixXd p_coordinates = next_p_coordinates(ritz.coordinates, bx, active);
-    combine(basis, p_coordinates, p);
-    combine(image, p_coordinates, cp);
-    combine(basis.rightCols(tail), ritz.coordinates.bottomRows(tail), r);
-    combine(image.rightCols(tail), ritz.coordinates.bottomRows(tail), cw);
-    const Eigen::MatrixXd x_coordinates = ritz.coordinates.topRows(bx);
-    combine_in_place(s, locked, x_coordinates, r);
-    combine_in_place(cs, locked, x_coordinates, cw);
-    bx = keep;
+    const Eigen::MatrixXd x_coordinates = ritz.coordinates.topRows(bx), tail_coordinates = ritz.coordinates.bottomRows(tail);
+    const Eigen::Index next_bp = p_coordinates.cols();
+    auto next_x_and_p = [&](const Eigen::MatrixXd& old, Eigen::MatrixXd& out, Eigen::MatrixXd& scratch) {
+      scratch.resize(old.rows(), keep);
+      tall_product(old.rightCols(tail), tail_coordinates, scratch, false);
+      tall_product(old.leftCols(bx), x_coordinates, out.leftCols(keep), false);
+      out.leftCols(keep) += scratch;
+      tall_product(old, p_coordinates, out.rightCols(next_bp), false);
+    };
+    transform_columns(s, locked, cols, keep + next_bp, next_x_and_p);
+    transform_columns(cs, locked, cols, keep + next_bp, next_x_and_p);
+    bx = keep, bp = next_bp;
     lambda = ritz.values;
   }
-  const Eigen::Index found = std::min<Eigen::Index>(count, locked + bx);
+  const Eigen::Index found = with_guards ? locked + bx : std::min<Eigen::Index>(count, locked + bx);
   result.values.resize(found);
   result.values.head(locked) = locked_values.head(locked);
   result.values.tail(found - locked) = lambda.head(found - locked);
+  r.resize(0, 0);
+  cs.resize(0, 0);
   result.vectors = s.leftCols(found);
   result.residual_norms.resize(found);
   result.residual_norms.head(locked) = locked_residuals.head(locked);

@@ -203,7 +203,7 @@ Spectrum lanczos(ShiftInvertOp& op, const Eigen::VectorXd& mass, int count, cons
 // Y = C X with C = S (-A) S, S = M^-1/2, for a block X: one pass over A for all columns
 // (Eigen's sparse * dense product reads A once per column), rows in parallel, each row summed
 // in a fixed order whatever the threads.
-void symmetric_block_product(const SparseMatrix& A, const Eigen::VectorXd& s, const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
+void symmetric_block_product(const SparseMatrix& A, const Eigen::VectorXd& s, const detail::BlockIn& x, detail::BlockOut y) {
   using RowBlock = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const RowBlock sx = s.asDiagonal() * x;
   RowBlock sy(x.rows(), x.cols());
@@ -241,8 +241,8 @@ bool lobpcg_spectrum(const SparseMatrix& A, const Eigen::VectorXd& mass, int cou
   // Gershgorin: the eigenvalues of C lie in [0, 2 max |A_ii| / m_i]; tolerance relative to it.
   const double c = 2.0 * (A.diagonal().cwiseAbs().array() / mass.array()).maxCoeff();
   const detail::LobpcgResult r = detail::lobpcg(
-      [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { symmetric_block_product(A, s, x, y); },
-      [](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { y = x; }, detail::lobpcg_start(n, block), count, o.tolerance * c,
+      [&](const detail::BlockIn& x, detail::BlockOut y) { symmetric_block_product(A, s, x, y); },
+      [](const detail::BlockIn& x, detail::BlockOut y) { y = x; }, detail::lobpcg_start(n, block), count, o.tolerance * c,
       iterations, o.progress);
   if (!r.converged) return false;
   out.eigenvalues = r.values;

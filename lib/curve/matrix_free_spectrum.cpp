@@ -42,16 +42,16 @@ public:
     y = c * x + sqrt_mass_.cwiseProduct(w_);
   }
   // Y = C X = -M^(1/2) L_c M^(-1/2) X: the columns' products side by side (apply_contour_block).
-  void apply_block(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-    scaled_.resize(x.rows(), x.cols());  // one block, reused by every call
+  void apply_block(const detail::BlockIn& x, detail::BlockOut y) const {
+    scaled_.resize(x.rows(), x.cols());  // blocks reused by every call (y is LOBPCG's view)
     const double* s = sqrt_mass_.data();
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < x.cols(); ++k)
       for (Eigen::Index i = 0; i < n_; ++i) scaled_(i, k) = x(i, k) / s[i];
-    op_.apply_contour_block(contour_, scaled_, y);
+    op_.apply_contour_block(contour_, scaled_, product_);
 #pragma omp parallel for schedule(static)
     for (Eigen::Index k = 0; k < y.cols(); ++k)
-      for (Eigen::Index i = 0; i < n_; ++i) y(i, k) *= -s[i];
+      for (Eigen::Index i = 0; i < n_; ++i) y(i, k) = product_(i, k) * -s[i];
   }
 
 private:
@@ -60,7 +60,7 @@ private:
   Eigen::Index first_, n_;
   Eigen::VectorXd sqrt_mass_;
   mutable Eigen::VectorXd z_, w_;
-  mutable Eigen::MatrixXd scaled_;
+  mutable Eigen::MatrixXd scaled_, product_;
 };
 
 // Spectra's view of c I - C (largest eigenvalues = the wanted smallest of C).
@@ -90,9 +90,8 @@ public:
 
   // out = T_y r, column by column (each column's solve is a sequential sweep: the columns
   // are the parallel work, and each is computed the same way whatever the thread count).
-  void apply_block(const Eigen::MatrixXd& r, Eigen::MatrixXd& out) const {
+  void apply_block(const detail::BlockIn& r, detail::BlockOut out) const {
     const Eigen::Index n = r.rows();
-    out.resize(n, r.cols());
 #pragma omp parallel for schedule(static)
     for (Eigen::Index c = 0; c < r.cols(); ++c) {
       double* z = out.col(c).data();
@@ -170,13 +169,13 @@ Spectrum contour_spectrum(const MatrixFreeLaplacian& op, std::size_t contour, in
   // same scale as Lanczos's Ritz-value test on c I - C.
   constexpr int kLobpcgIterations = 300;
   const Eigen::Index block = detail::lobpcg_block(n, count);
-  // LOBPCG's blocks, and the form's scaled copy of the block it multiplies.
-  const double lobpcg_need = detail::lobpcg_bytes(n, block) + 8.0 * static_cast<double>(n) * static_cast<double>(block);
+  // LOBPCG's blocks, and the form's scaled copy of the block it multiplies and its product.
+  const double lobpcg_need = detail::lobpcg_bytes(n, block) + 16.0 * static_cast<double>(n) * static_cast<double>(block);
   if (block < n / 2 && lobpcg_need <= o.memory_limit_bytes) {
     const ArclengthPreconditioner preconditioner(op, contour);
     const detail::LobpcgResult r = detail::lobpcg(
-        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { form.apply_block(x, y); },
-        [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply_block(x, y); },
+        [&](const detail::BlockIn& x, detail::BlockOut y) { form.apply_block(x, y); },
+        [&](const detail::BlockIn& x, detail::BlockOut y) { preconditioner.apply_block(x, y); },
         detail::lobpcg_start(n, block), count,
         o.tolerance * c, std::min(o.max_iterations, kLobpcgIterations), o.progress);
     if (r.converged) {

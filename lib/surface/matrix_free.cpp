@@ -16,6 +16,7 @@
 
 #include <algorithm>
 #include <mutex>
+#include <numeric>
 #include <cstring>
 #include <cmath>
 #include <sstream>
@@ -408,16 +409,14 @@ void prepare_products(detail::SurfacePart& part, std::vector<std::size_t>* candi
   part.row_sum = sums.row(0).transpose();
 }
 
-// Y = A X (stiffness) or L X on one part, X and Y holding its rows.
-void part_product(const detail::SurfacePart& part, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) {
-  if (x.rows() != part.rows)
-    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
-                std::to_string(part.rows));
-  const Eigen::Index b = x.cols(), n = part.rows;
-  // z = mu x, each row's b values contiguous (the inner loop runs over them), from 8 on padded
-  // with zeros to a multiple of 8, rows in the grid's order (a row's neighbours are then a few
-  // runs of memory).
-  const Eigen::Index padded = padded_columns(b);
+// A product on one part: z = mu x in the grid's order (fill(it, z_it) writes the b values of
+// grid item it), its sums over the pairs (received), and write(it, sums_it) for each item.
+// z holds each row's b values contiguously (the inner loop runs over them), from 8 on padded
+// with zeros to a multiple of 8, rows in the grid's order (a row's neighbours are then a few
+// runs of memory).
+template <class Fill, class Write>
+void product_in_grid_order(const detail::SurfacePart& part, Eigen::Index b, const Fill& fill, const Write& write) {
+  const Eigen::Index padded = padded_columns(b), n = part.rows;
   // The blocks are the part's own (SurfacePart::scratch_z), or, when they are in use, fresh ones on huge
   // pages, asked for before they are written (faulting 4 KiB pages in was about a tenth of a
   // torus's spectrum at h = 0.025, 67,000 faults; docs/benchmarks.md).
@@ -428,18 +427,55 @@ void part_product(const detail::SurfacePart& part, const Eigen::MatrixXd& x, Eig
   std::vector<Eigen::MatrixXd>& image = scratch.owns_lock() ? part.scratch_image : own_image;
   digilap::detail::resize_on_huge_pages(z, padded, n);
   for (Eigen::Index it = 0; it < n; ++it) {
-    z.col(it).head(b) = part.mass_in_grid[it] * x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose();
+    fill(it, z.col(it).head(b));
     z.col(it).tail(padded - b).setZero();
   }
   const Eigen::MatrixXd& sums = received(part, z, image, nullptr);
-  // y_i = s_i (sum_j g_ij mu_j x_j - sum_i x_i), s_i = mu_i (A) or 1 + g_i (L): the assembled row.
-  digilap::detail::resize_on_huge_pages(y, n, b);
 #pragma omp parallel for schedule(static)
-  for (Eigen::Index it = 0; it < n; ++it) {
-    const Eigen::Index row = part.grid.items[static_cast<std::size_t>(it)];
-    const double scale = stiffness ? part.mass_in_grid[it] : part.row_scale[it], sum = part.row_sum[it];
-    for (Eigen::Index c = 0; c < b; ++c) y(row, c) = scale * (sums(c, it) - sum * x(row, c));
-  }
+  for (Eigen::Index it = 0; it < n; ++it) write(it, sums.col(it));
+}
+
+// Y = A X (stiffness) or L X on one part, X and Y holding its rows.
+void part_product(const detail::SurfacePart& part, const Eigen::MatrixXd& x, Eigen::MatrixXd& y, bool stiffness) {
+  if (x.rows() != part.rows)
+    throw Error("MatrixFreeSurfaceOperator: a block of " + std::to_string(x.rows()) + " rows for a surface of " +
+                std::to_string(part.rows));
+  const Eigen::Index b = x.cols();
+  digilap::detail::resize_on_huge_pages(y, part.rows, b);
+  // y_i = s_i (sum_j g_ij mu_j x_j - sum_i x_i), s_i = mu_i (A) or 1 + g_i (L): the assembled row.
+  product_in_grid_order(
+      part, b,
+      [&](Eigen::Index it, auto z) { z = part.mass_in_grid[it] * x.row(part.grid.items[static_cast<std::size_t>(it)]).transpose(); },
+      [&](Eigen::Index it, const auto& sums) {
+        const Eigen::Index row = part.grid.items[static_cast<std::size_t>(it)];
+        const double scale = stiffness ? part.mass_in_grid[it] : part.row_scale[it], sum = part.row_sum[it];
+        for (Eigen::Index c = 0; c < b; ++c) y(row, c) = scale * (sums[c] - sum * x(row, c));
+      });
+}
+
+// Y = S (-A) S X on the rows of a part that `local` numbers (local[row]: the row's row in X and
+// Y, or -1 for a row left out, which counts as zero), S = diag(s): the symmetric form a spectrum
+// iterates on, written straight into y (a view of the solver's block). The same arithmetic as
+// scaling, scattering onto the part's rows, part_product and gathering back, without those
+// three blocks of the part's size.
+void symmetric_part_product(const detail::SurfacePart& part, const std::vector<Eigen::Index>& local, const Eigen::VectorXd& s,
+                            const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) {
+  const Eigen::Index b = x.cols();
+  auto row_of = [&](Eigen::Index it) { return local[static_cast<std::size_t>(part.grid.items[static_cast<std::size_t>(it)])]; };
+  product_in_grid_order(
+      part, b,
+      [&](Eigen::Index it, auto z) {
+        const Eigen::Index k = row_of(it);
+        if (k < 0) z.setZero();
+        else
+          for (Eigen::Index c = 0; c < b; ++c) z[c] = part.mass_in_grid[it] * (s[k] * x(k, c));
+      },
+      [&](Eigen::Index it, const auto& sums) {
+        const Eigen::Index k = row_of(it);
+        if (k < 0) return;
+        const double scale = part.mass_in_grid[it], sum = part.row_sum[it];
+        for (Eigen::Index c = 0; c < b; ++c) y(k, c) = s[k] * -(scale * (sums[c] - sum * (s[k] * x(k, c))));
+      });
 }
 
 }  // namespace
@@ -568,9 +604,10 @@ public:
     if (!solver_.compute(k)) throw Error("smallest_eigenpairs (matrix-free surfaces): the preconditioner's factorization failed");
     root_mass_ = mass.cwiseSqrt();
   }
-  // The solves 8 columns at a time over the threads (core/block_ldlt.hpp).
-  void apply(const Eigen::MatrixXd& x, Eigen::MatrixXd& y) const {
-    solver_.solve(root_mass_.asDiagonal() * x, y);
+  // The solves 8 columns at a time over the threads (core/block_ldlt.hpp), in y.
+  void apply(const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) const {
+    y = root_mass_.asDiagonal() * x;
+    solver_.solve_in_place(y);
     y = scale_ * (root_mass_.asDiagonal() * y) + t_ * x;
   }
 
@@ -633,9 +670,20 @@ constexpr Eigen::Index kCoarseMinRows = 5000;
 // (1e-8 instead: the same fine iterations, twice the coarse ones).
 constexpr double kCoarseTolerance = 1e-4;
 constexpr int kCoarseIterations = 100;
+// The block ends past a gap after the last wanted eigenvalue: LOBPCG's last wanted pairs
+// converge at a rate set by lambda_count-1 / lambda_b, b the block's size, and where the usual
+// guards end inside a cluster that the wanted ones also fall in (50 eigenpairs of a sphere:
+// l = 7 is 15 eigenvalues, from the 50th to the 64th, within 0.3% of each other) that ratio is 1
+// to 0.3%: 31 iterations on the sphere at h = 0.025 against 14 with the block taken past the
+// cluster (docs/benchmarks.md). The coarse eigenvalues (the guards' too) show the clusters; the
+// block grows to the first that is kClusterGap above the last wanted one, when the coarse block
+// reaches it, else stays.
+constexpr double kClusterGap = 1.1;
 
+// The start of `block` columns for `count` eigenpairs, or of more (at most max_block) where the
+// coarse spectrum shows that the block would end inside the last wanted eigenvalue's cluster.
 Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p, const std::vector<Eigen::Index>& support,
-                             const Eigen::VectorXd& mass, Eigen::Index block) {
+                             const Eigen::VectorXd& mass, int count, Eigen::Index block, Eigen::Index max_block) {
   const detail::SurfacePart& fine = op.part(p);
   const auto n = static_cast<Eigen::Index>(support.size());
   const double cell = kCoarseCell * op.h(), t = fine.kernel.t;
@@ -687,25 +735,26 @@ Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p,
     const auto at = static_cast<Eigen::Index>(it);
     c = std::max(c, 2 * coarse.mass_in_grid[at] * coarse.row_sum[at] / area[coarse.grid.items[it]]);
   }
-  Eigen::MatrixXd scaled;
-  auto apply_c = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
-    scaled = s.asDiagonal() * x;
-    part_product(coarse, scaled, y, true);
-    y = -(s.asDiagonal() * y);
-  };
+  std::vector<Eigen::Index> every_row(static_cast<std::size_t>(m));
+  std::iota(every_row.begin(), every_row.end(), Eigen::Index{0});
+  auto apply_c = [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { symmetric_part_product(coarse, every_row, s, x, y); };
   const GraphPreconditioner preconditioner(positions, area, cell, t, fine.kernel.cut);
   const auto wanted = static_cast<int>(block);
   const digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
-      apply_c, [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); },
+      apply_c, [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { preconditioner.apply(x, y); },
       digilap::detail::lobpcg_start(m, digilap::detail::lobpcg_block(m, wanted)), wanted, kCoarseTolerance * c, kCoarseIterations,
-      nullptr);
+      nullptr, true);
   if (!result.converged) return {};
+  const Eigen::VectorXd& values = result.values;  // the wanted `block`, then the coarse guards
+  Eigen::Index columns = block;
+  while (columns < std::min(max_block, values.size()) && values[columns] < kClusterGap * values[count - 1]) ++columns;
+  if (columns == values.size() || values[columns] < kClusterGap * values[count - 1]) columns = block;  // no gap within reach
   // The aggregates' eigenvectors u = S y, each surfel taking its aggregate's, in the symmetric
   // form M^(1/2) u of the surfels' problem.
-  Eigen::MatrixXd start(n, block);
+  Eigen::MatrixXd start(n, columns);
   for (Eigen::Index k = 0; k < n; ++k) {
     const Eigen::Index a = aggregate[static_cast<std::size_t>(k)];
-    start.row(k) = std::sqrt(mass[k]) * s[a] * result.vectors.row(a);
+    start.row(k) = std::sqrt(mass[k]) * s[a] * result.vectors.row(a).head(columns);
   }
   return start;
 }
@@ -716,30 +765,27 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
   const Eigen::Index first = op.row_offset()[p], rows = op.row_offset()[p + 1] - first, n = static_cast<Eigen::Index>(support.size());
   Eigen::VectorXd mass(n), s(n);
   for (Eigen::Index r = 0; r < n; ++r) mass[r] = op.mass()[first + support[r]], s[r] = 1 / std::sqrt(mass[r]);
-  // -A on the support: x scattered onto the surface's rows (zero off the support, where A's
-  // columns vanish anyway), multiplied, and gathered back.
-  Eigen::MatrixXd full, image;
-  auto minus_a = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
-    digilap::detail::resize_on_huge_pages(full, rows, x.cols());
-    full.setZero();
-    for (Eigen::Index r = 0; r < n; ++r) full.row(support[r]) = x.row(r);
-    op.apply_part(p, full, image, true);
-    digilap::detail::resize_on_huge_pages(y, n, x.cols());
-    for (Eigen::Index r = 0; r < n; ++r) y.row(r) = -image.row(support[r]);
-  };
+  // C = S (-A) S on the support (S = M^(-1/2)): the surface's other rows count as zero (A's
+  // columns vanish there anyway).
+  std::vector<Eigen::Index> local(static_cast<std::size_t>(rows), -1);
+  for (Eigen::Index r = 0; r < n; ++r) local[static_cast<std::size_t>(support[static_cast<std::size_t>(r)])] = r;
+  const detail::SurfacePart& part = op.part(p);
   if (n <= digilap::detail::kDenseRows || 2 * count + 1 > n) {
     constexpr Eigen::Index kDenseLastResort = 3000;
     if (n > kDenseLastResort)
       throw Error("smallest_eigenpairs: " + std::to_string(count) + " eigenpairs of a surface of " + std::to_string(n) +
                   " surfels is more than half of them; ask for fewer");
-    Eigen::MatrixXd minus_a_dense;
-    minus_a(Eigen::MatrixXd::Identity(n, n), minus_a_dense);
+    Eigen::MatrixXd minus_a_dense(n, n);
+    symmetric_part_product(part, local, Eigen::VectorXd::Ones(n), Eigen::MatrixXd::Identity(n, n), minus_a_dense);
     return digilap::detail::dense_spectrum(-minus_a_dense, mass, count);
   }
   const Eigen::Index block = digilap::detail::lobpcg_block(n, count);
-  // The products' own blocks (apply_part): z and up to kMaxLayersAhead + 1 images, the part's rows by the block.
-  const double product_bytes = (kMaxLayersAhead + 2.0) * static_cast<double>(rows) * static_cast<double>(padded_columns(block)) * sizeof(double);
-  if (digilap::detail::lobpcg_bytes(n, block) + op.bytes() + product_bytes > o.memory_limit_bytes) {
+  // LOBPCG's blocks and the products' own (z and up to kMaxLayersAhead + 1 images, the part's rows by the block).
+  auto bytes_for = [&](Eigen::Index b) {
+    const double product_bytes = (kMaxLayersAhead + 2.0) * static_cast<double>(rows) * static_cast<double>(padded_columns(b)) * sizeof(double);
+    return digilap::detail::lobpcg_bytes(n, b) + op.bytes() + product_bytes;
+  };
+  if (bytes_for(block) > o.memory_limit_bytes) {
     std::ostringstream msg;
     msg << "smallest_eigenpairs (matrix-free surfaces): LOBPCG's blocks would take about "
         << digilap::detail::lobpcg_bytes(n, block) / 1e9 << " GB, above the memory limit of " << o.memory_limit_bytes / 1e9
@@ -751,27 +797,26 @@ Spectrum part_spectrum(const MatrixFreeSurfaceOperator& op, std::size_t p, const
   const GraphPreconditioner preconditioner(support_positions, mass, op.h(), op.part_t()[p], op.part_cut(p));
   double c = 0;  // Gershgorin: the eigenvalues of S (-A) S lie in [0, 2 max |A_ii| / m_i]
   for (Eigen::Index r = 0; r < n; ++r) c = std::max(c, 2 * std::abs(op.stiffness_diagonal()[first + support[r]]) / mass[r]);
-  Eigen::MatrixXd scaled;
-  auto apply_c = [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) {
-    digilap::detail::resize_on_huge_pages(scaled, x.rows(), x.cols());
-    scaled.noalias() = s.asDiagonal() * x;
-    minus_a(scaled, y);
-    y = s.asDiagonal() * y;
-  };
+  auto apply_c = [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { symmetric_part_product(part, local, s, x, y); };
   // Preconditioned first (16-20 iterations on smooth surfaces, against 30-50 without). On
   // some thin real structures (a tract one or two voxels thick, whose graph joins opposite
   // sides) it stalls: after 150 iterations, the unpreconditioned iteration the assembled
   // operator uses takes over, from the start again.
   const int preconditioned_iterations = std::min(o.max_iterations, 150);
-  Eigen::MatrixXd start = o.coarse_start ? coarse_start(op, p, support, mass, block) : Eigen::MatrixXd();
+  Eigen::MatrixXd start;
+  if (o.coarse_start) {
+    Eigen::Index max_block = block;  // the coarse start may take the block past a cluster, within the memory limit
+    while (max_block < std::min<Eigen::Index>(2 * block, n / 2) && bytes_for(max_block + 1) <= o.memory_limit_bytes) ++max_block;
+    start = coarse_start(op, p, support, mass, count, block, max_block);
+  }
   if (start.size() == 0) start = digilap::detail::lobpcg_start(n, block);
   digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
-      apply_c, [&](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { preconditioner.apply(x, y); }, std::move(start), count,
+      apply_c, [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { preconditioner.apply(x, y); }, std::move(start), count,
       o.tolerance * c, preconditioned_iterations, o.progress);
   if (!result.converged) {
     const int spent = result.products;
     result = digilap::detail::lobpcg(
-        apply_c, [](const Eigen::MatrixXd& x, Eigen::MatrixXd& y) { y = x; }, digilap::detail::lobpcg_start(n, block), count,
+        apply_c, [](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { y = x; }, digilap::detail::lobpcg_start(n, block), count,
         o.tolerance * c, o.max_iterations, o.progress);
     result.products += spent;
     result.iterations += preconditioned_iterations;

@@ -92,15 +92,22 @@ TEST(BlockLdlt, SolvesEqualEigensAndDoNotDependOnThreads) {
   for (Eigen::Index b : {1, 7, 8, 9, 30}) {
     const Eigen::MatrixXd x = random_block(lower.rows(), b, 6);
     const Eigen::MatrixXd one = on_threads(1, [&] {
-      Eigen::MatrixXd y;
-      solver.solve(x, y);
+      Eigen::MatrixXd y = x;
+      solver.solve_in_place(y);
       return y;
     });
     const Eigen::MatrixXd two = on_threads(2, [&] {
-      Eigen::MatrixXd y;
-      solver.solve(x, y);
+      Eigen::MatrixXd y = x;
+      solver.solve_in_place(y);
       return y;
     });
+    // In place on a view, as LOBPCG calls it (columns of a wider block): the same bits, and the
+    // columns beside it untouched.
+    Eigen::MatrixXd wide = Eigen::MatrixXd::Constant(lower.rows(), b + 2, 7.0);
+    wide.middleCols(1, b) = x;
+    solver.solve_in_place(wide.middleCols(1, b));
+    EXPECT_EQ(std::memcmp(one.data(), wide.middleCols(1, b).eval().data(), sizeof(double) * static_cast<std::size_t>(one.size())), 0) << b;
+    EXPECT_TRUE((wide.col(0).array() == 7.0).all() && (wide.col(b + 1).array() == 7.0).all()) << b;
     const Eigen::MatrixXd expected = reference.solve(x);
     // The same factor and the same operations up to the order of a row's updates and 1 / d
     // against a division: 1e-12 of the solution (the matrix's condition number is about 400).

@@ -74,14 +74,16 @@ struct SpectrumOptions {
   /// -1e-2 (2 pi)^2 / (sum mu)^(2/d), a hundredth of the first eigenvalue's order whatever the
   /// units, and Auto means Products for d >= 2. smallest_eigenpairs(op) takes op.dimension.
   int dimension = 1;
-  /// The dense blocks LOBPCG may allocate (it holds about 11 blocks of N x (count + guard)
-  /// doubles); above it, the factorization (explicit operators) or Lanczos (matrix-free), else
-  /// digilap::Error.
+  /// The dense blocks LOBPCG may allocate (it holds 7 blocks of N x (count + guards) doubles,
+  /// and counts 8; on surfaces, the products' own blocks besides); above it, the factorization
+  /// (explicit operators) or Lanczos (matrix-free), else digilap::Error.
   double memory_limit_bytes = 8.0 * (1ull << 30);
   /// Matrix-free surfaces: start LOBPCG from the eigenvectors of the same kernel on aggregates of
   /// about 2 x 2 surfels where that pays (sqrt(t) at least 2 h, 5,000 surfels or more: a third
   /// fewer iterations on smooth surfaces at small h); false: a random start. The same
-  /// eigenpairs either way, to the tolerance.
+  /// eigenpairs either way, to the tolerance. Where its eigenvalues show that the block would
+  /// end inside the last wanted eigenvalue's cluster (50 eigenpairs of a sphere), the block
+  /// goes past it (half the iterations there).
   bool coarse_start = true;
   /// Optional: called after each LOBPCG iteration with the iteration and the largest wanted
   /// residual relative to the tolerance (converged when <= 1).
