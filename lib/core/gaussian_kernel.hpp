@@ -5,7 +5,8 @@
 
 namespace digilap {
 
-/// In place: values[k] <- scale * exp(-values[k] * inv_4t) for k < count.
+/// In place: values[k] <- scale * exp(-values[k] * inv_4t) for k < count; exactly 0 where
+/// values[k] is +infinity (the surface products' pairs left out), or the argument below -708.
 void gaussian_weights(double* values, Eigen::Index count, double inv_4t, double scale);
 
 /// Values a buffer of gaussian_weights_wide must have room for: count rounded up to 64.

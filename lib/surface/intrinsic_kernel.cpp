@@ -18,8 +18,8 @@ using digilap::detail::Lanes8;
 // (within the cut, not at the row's own place, normals within 90 degrees; 0 elsewhere): the
 // tangent chord rho^2 (into rho2, which becomes the weight), rho^2 mu_j, <d, e> mu_j and
 // |e|^2 mu_j. A loop without branches, so that it vectorizes (a row at a time with its own
-// neighbour search, this pass was a tenth of a sphere's spectrum at h = 0.0125). The division
-// uses |s|^2 where the neighbour counts and 1 elsewhere, so no lane divides by zero.
+// neighbour search, this pass was a tenth of a sphere's spectrum at h = 0.0125). The reciprocal
+// (surfel_grid.hpp) takes |s|^2 where the neighbour counts and 1 elsewhere.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void curvature_terms(
     const TileBuffer& b, std::size_t count, const double* q, const double* nq, double cut2, double* __restrict rho2,
     double* __restrict rho2_mu, double* __restrict bend, double* __restrict turn) {
@@ -37,7 +37,7 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
     const double chord2 = dx * dx + dy * dy + dz * dz;
     const double s2 = sx * sx + sy * sy + sz * sz, height = dx * sx + dy * sy + dz * sz;
     const bool counts = s2 > 2 && chord2 > 0 && chord2 <= cut2;
-    const double r2 = counts ? chord2 - height * height / (counts ? s2 : 1.0) : 0.0;
+    const double r2 = counts ? chord2 - height * height * reciprocal_of_normals_sum(counts ? s2 : 1.0) : 0.0;
     rho2[k] = r2;
     rho2_mu[k] = r2 * mu[k];
     bend[k] = counts ? (dx * ex + dy * ey + dz * ez) * mu[k] : 0.0;

@@ -15,6 +15,7 @@
 
 
 #include <algorithm>
+#include <limits>
 #include <mutex>
 #include <numeric>
 #include <cstring>
@@ -122,13 +123,6 @@ constexpr Eigen::Index kLanes = 8;
 constexpr int kMaxLayersAhead = 3;
 Eigen::Index padded_columns(Eigen::Index b) { return b < kLanes ? b : (b + kLanes - 1) / kLanes * kLanes; }
 const bool kWideVectors = __builtin_cpu_supports("avx512f");
-
-// The upper triangle's weights of a row on its tile's candidates: the kernel's value where the
-// chord is within the cut and the candidate comes after the row in the grid's order, 0 elsewhere.
-__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void upper_weights(
-    double* __restrict w, const double* __restrict chord2, const int* __restrict col, std::size_t count, double cut2, int self) {
-  for (std::size_t k = 0; k < count; ++k) w[k] = chord2[k] <= cut2 && col[k] > self ? w[k] : 0.0;
-}
 
 // Each pair once: for the R rows i_r of a tile and the candidates k after them (weights g_r[k],
 // 0 where a pair is not one), the rows' sums out_r += sum_k g_r[k] z_k and the candidates'
@@ -277,23 +271,26 @@ std::size_t upper_tile(const Part& part, Eigen::Index first, int rows, detail::T
   const detail::Grid& grid = part.grid;
   const detail::Kernel& kernel = part.kernel;
   const std::size_t count = detail::gather_tile_candidates(grid, first, rows, kernel.cut, nullptr, buffer, first);
+  const double cut2 = kernel.cut * kernel.cut;
+  const int* col = buffer.col.data();
   for (int r = 0; r < rows; ++r) {
     const auto at = static_cast<std::size_t>(first + r);
+    const int self = static_cast<int>(at);
     const double q[3] = {grid.xs[at], grid.ys[at], grid.zs[at]};
-    double* chord2 = buffer.chord2[r].data();
     g[r] = buffer.d2[r].data();
+    // Squared distances, +infinity off the upper triangle or beyond the cut (a weight of 0).
     if (part.intrinsic()) {
       const double nq[3] = {grid.nxs[at], grid.nys[at], grid.nzs[at]};
-      detail::intrinsic_distances(buffer.x.data(), buffer.y.data(), buffer.z.data(), buffer.nx.data(), buffer.ny.data(),
-                                  buffer.nz.data(), count, q, nq, chord2, g[r]);
+      detail::upper_intrinsic_distances(buffer.x.data(), buffer.y.data(), buffer.z.data(), buffer.nx.data(), buffer.ny.data(),
+                                        buffer.nz.data(), col, count, q, nq, cut2, self, g[r]);
     } else {
       for (std::size_t k = 0; k < count; ++k) {
         const double dx = buffer.x[k] - q[0], dy = buffer.y[k] - q[1], dz = buffer.z[k] - q[2];
-        chord2[k] = g[r][k] = dx * dx + dy * dy + dz * dz;
+        const double chord2 = dx * dx + dy * dy + dz * dz;
+        g[r][k] = chord2 <= cut2 && col[k] > self ? chord2 : std::numeric_limits<double>::infinity();
       }
     }
     gaussian_weights_wide(g[r], static_cast<Eigen::Index>(count), kernel.inv_4t, kernel.scale);
-    upper_weights(g[r], chord2, buffer.col.data(), count, kernel.cut * kernel.cut, static_cast<int>(at));
   }
   return count;
 }

@@ -33,6 +33,30 @@ namespace digilap::surface::detail {
 // contracting products into FMAs, so that every build gives the same bits (surfel_grid.cpp).
 void intrinsic_distances(const double* x, const double* y, const double* z, const double* nx, const double* ny, const double* nz,
                          std::size_t count, const double* q, const double* nq, double* chord2, double* d2);
+// The same for the products' upper triangle (matrix_free.cpp), one row of a tile against its
+// candidates (grid positions col): d2 alone, +infinity where the chord is beyond the cut or the
+// candidate is not after the row (col <= self), whose weight the kernel's exp then makes exactly
+// 0 (core/gaussian_kernel.cpp). One pass where a pass writing the chords and one reading them
+// back to zero those weights took 3-4% of a product.
+void upper_intrinsic_distances(const double* x, const double* y, const double* z, const double* nx, const double* ny,
+                               const double* nz, const int* col, std::size_t count, const double* q, const double* nq, double cut2,
+                               int self, double* d2);
+
+namespace {
+// 1 / s without a double division, for the intrinsic kernel's |s|^2 (in (2, 4], or 1): a vector
+// double division takes 16 cycles for 8 values on an Intel Ice Lake server, and the two of
+// intrinsic_distances (this one and a division by 12) were two thirds of its time, a tenth of a
+// surface spectrum's (docs/benchmarks.md). A float division (24 correct bits, the same on every
+// CPU: IEEE rounds it exactly), then two Newton steps y (2 - s y), each doubling the correct
+// bits: within 2 ulp of 1 / s. Only for the files built without FMA contraction
+// (surfel_grid.cpp, intrinsic_kernel.cpp: lib/CMakeLists.txt), whose clones then round alike;
+// internal linkage, so that each of them has its own copy built with its own flags.
+inline double reciprocal_of_normals_sum(double s) {
+  double y = static_cast<double>(1.0f / static_cast<float>(s));
+  y = y * (2.0 - s * y);
+  return y * (2.0 - s * y);
+}
+}  // namespace
 
 // A row's columns and squared distances, before sorting (one per thread, reused).
 struct RowBuffer {

@@ -78,6 +78,16 @@ TEST(GaussianKernel, ExactAtZeroAndZeroPastTheNormalRange) {
   EXPECT_GT(d2[1], 0.0);  // exp(-708) is still a normal double
   EXPECT_NEAR(d2[1] / (2.5 * std::exp(-708.0)), 1.0, 1e-15);
   for (std::size_t k = 2; k < d2.size(); ++k) EXPECT_EQ(d2[k], 0.0) << k;
+  // +infinity (the surface products' pairs left out, surfel_grid.hpp) gives +0, through both
+  // entry points.
+  std::vector<double> out = {std::numeric_limits<double>::infinity(), 0.0};
+  gaussian_weights(out.data(), 2, 53.1, 0.37);
+  EXPECT_EQ(out[0], 0.0);
+  EXPECT_FALSE(std::signbit(out[0]));
+  EXPECT_EQ(out[1], 0.37);
+  AlignedValues wide(std::vector<double>(70, std::numeric_limits<double>::infinity()));
+  gaussian_weights_wide(wide.data, wide.size, 53.1, 0.37);
+  for (Eigen::Index k = 0; k < wide.size; ++k) EXPECT_EQ(wide.data[k], 0.0) << k;
 }
 
 // A pair's weight is the same in every operator (the assembled rows take gaussian_weights, the

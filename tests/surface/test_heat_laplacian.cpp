@@ -13,6 +13,8 @@
 
 #include <omp.h>
 #include <cstring>
+#include <limits>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -363,6 +365,57 @@ TEST(SurfaceIntrinsicKernel, StructureAndThreadIndependence) {
       }
     EXPECT_GT(checked, 100) << name;
   }
+}
+
+// The intrinsic distance's 1 / |s|^2 without a division (surfel_grid.hpp): a float division
+// and two Newton steps, within 2 ulp of the exact reciprocal over the whole range it sees,
+// |s|^2 in (2, 4] (normals within 90 degrees), and exactly 1 at 1 (the value the other pairs
+// take). Measured: 1 ulp at most; 2 is the bound of two rounded steps.
+TEST(SurfaceIntrinsicKernel, ReciprocalWithoutDivisionWithinTwoUlp) {
+  double worst = 0;
+  for (int k = 1; k <= 200000; ++k) {
+    const double s = 2 + 2.0 * k / 200000;
+    const long double exact = 1.0L / static_cast<long double>(s);
+    const double unit = std::numeric_limits<double>::epsilon() * std::pow(2.0, std::ilogb(static_cast<double>(exact)));
+    worst = std::max(worst, static_cast<double>(std::fabs(static_cast<long double>(surface::detail::reciprocal_of_normals_sum(s)) - exact) / unit));
+  }
+  EXPECT_LE(worst, 2.0);
+  EXPECT_EQ(surface::detail::reciprocal_of_normals_sum(1.0), 1.0);
+}
+
+// The products' upper triangle (surfel_grid.hpp): the same squared distances as the rows' pass
+// bit for bit where a pair is kept (chord within the cut, candidate after the row), +infinity
+// elsewhere, on candidates from a grid of II normals.
+TEST(SurfaceIntrinsicKernel, UpperTriangleDistancesAreTheRowsOnesOrInfinity) {
+  const auto s = posed(make_surface("torus"));
+  const Defaults d = defaults_pipeline(*s, 0.1);
+  const Eigen::MatrixX3d x = d.surfels.centres();
+  const Eigen::MatrixX3d& nrm = d.mu.normals;
+  const double cut = 0.45;
+  const surface::detail::Grid grid(x, cut, &nrm);
+  const std::size_t n = grid.items.size();
+  std::vector<int> col(n);
+  std::iota(col.begin(), col.end(), 0);
+  std::vector<double> chord2(n), d2(n), upper(n);
+  int kept = 0, left = 0;
+  for (std::size_t self = 0; self < n; self += n / 7) {
+    const double q[3] = {grid.xs[self], grid.ys[self], grid.zs[self]}, nq[3] = {grid.nxs[self], grid.nys[self], grid.nzs[self]};
+    surface::detail::intrinsic_distances(grid.xs.data(), grid.ys.data(), grid.zs.data(), grid.nxs.data(), grid.nys.data(),
+                                         grid.nzs.data(), n, q, nq, chord2.data(), d2.data());
+    surface::detail::upper_intrinsic_distances(grid.xs.data(), grid.ys.data(), grid.zs.data(), grid.nxs.data(), grid.nys.data(),
+                                               grid.nzs.data(), col.data(), n, q, nq, cut * cut, static_cast<int>(self), upper.data());
+    for (std::size_t k = 0; k < n; ++k) {
+      if (chord2[k] <= cut * cut && k > self) {
+        ASSERT_EQ(std::memcmp(&upper[k], &d2[k], sizeof(double)), 0) << self << " " << k;
+        ++kept;
+      } else {
+        ASSERT_EQ(upper[k], std::numeric_limits<double>::infinity()) << self << " " << k;
+        ++left;
+      }
+    }
+  }
+  EXPECT_GT(kept, 100);
+  EXPECT_GT(left, 100);
 }
 
 // The curvature factors come from an estimate of the Gaussian curvature K: on the unit sphere
