@@ -368,18 +368,19 @@ TEST(SurfaceIntrinsicKernel, StructureAndThreadIndependence) {
 }
 
 // The intrinsic distance's 1 / |s|^2 without a division (surfel_grid.hpp): a float division
-// and two Newton steps, within 2 ulp of the exact reciprocal over the whole range it sees,
-// |s|^2 in (2, 4] (normals within 90 degrees), and exactly 1 at 1 (the value the other pairs
-// take). Measured: 1 ulp at most; 2 is the bound of two rounded steps.
-TEST(SurfaceIntrinsicKernel, ReciprocalWithoutDivisionWithinTwoUlp) {
+// and two Newton steps, close to the exact reciprocal over the whole range it sees, |s|^2 in
+// (2, 4] (normals within 90 degrees), and exactly 1 at 1 (the value the other pairs take).
+// Measured: 1.25 ulp at most over 4 million values; asserted 1.5 (the plain last step,
+// y (2 - s y), reaches 1.97 and fails).
+TEST(SurfaceIntrinsicKernel, ReciprocalWithoutDivisionWithinOneAndAHalfUlp) {
   double worst = 0;
-  for (int k = 1; k <= 200000; ++k) {
-    const double s = 2 + 2.0 * k / 200000;
+  for (int k = 1; k <= 1000000; ++k) {
+    const double s = 2 + 2.0 * k / 1000000;
     const long double exact = 1.0L / static_cast<long double>(s);
     const double unit = std::numeric_limits<double>::epsilon() * std::pow(2.0, std::ilogb(static_cast<double>(exact)));
     worst = std::max(worst, static_cast<double>(std::fabs(static_cast<long double>(surface::detail::reciprocal_of_normals_sum(s)) - exact) / unit));
   }
-  EXPECT_LE(worst, 2.0);
+  EXPECT_LE(worst, 1.5);
   EXPECT_EQ(surface::detail::reciprocal_of_normals_sum(1.0), 1.0);
 }
 
