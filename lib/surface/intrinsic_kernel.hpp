@@ -41,7 +41,8 @@ constexpr double kMaxCurvatureCorrection = 0.25;
 
 /// K of each point of `grid` (built with normals over a part's points, rows local to it), from
 /// its neighbours within the kernel's cut whose normals are within 90 degrees; `mu` the part's
-/// measures by local row. 0 where no neighbour counts. Deterministic, parallel over rows.
+/// measures by local row. 0 where no neighbour counts. Each pair once, the grid's layers of cells
+/// over the threads (TileLayers): the same bits on any number of threads.
 Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
                                              const Eigen::VectorXd& mu, const Kernel& kernel);
 

@@ -61,10 +61,8 @@ struct detail::SurfacePart {
   // diagonal of the products that take each pair once (apply_part), which see half a row.
   Eigen::VectorXd row_sum;
   // The grid's layers of cells along its slowest axis, the surface's longest extent (more layers
-  // share the threads better: a torus lying flat at h = 0.025 has 5 along z, 15 along x): layer
-  // l's items start at layer_item[l], its tiles at layer_tile[l] (tiles never straddle a cell).
-  // A pair's second item lies at most grid.reach layers after its first.
-  std::vector<Eigen::Index> layer_item, layer_tile;
+  // share the threads better: a torus lying flat at h = 0.025 has 5 along z, 15 along x).
+  detail::TileLayers layers;
   // The products' blocks (z and the images, apply_part), kept from one product to the next:
   // faulting four fresh blocks in was a third of a small surface's spectrum (a torus at
   // h = 0.05: 0.95 s against 0.73 s). One product at a time uses them; a product that runs
@@ -72,17 +70,6 @@ struct detail::SurfacePart {
   mutable std::mutex scratch_mutex;
   mutable Eigen::MatrixXd scratch_z;
   mutable std::vector<Eigen::MatrixXd> scratch_image;
-  void find_layers() {
-    const Eigen::Index per_layer = grid.cells_per_layer(), layers = grid.layers();
-    layer_item.resize(static_cast<std::size_t>(layers + 1));
-    layer_tile.resize(static_cast<std::size_t>(layers + 1));
-    Eigen::Index tile = 0;
-    for (Eigen::Index l = 0; l <= layers; ++l) {
-      const Eigen::Index item = grid.start[static_cast<std::size_t>(l * per_layer)];
-      while (tile < tiles.size() && tiles.first(tile) < item) ++tile;
-      layer_item[static_cast<std::size_t>(l)] = item, layer_tile[static_cast<std::size_t>(l)] = tile;
-    }
-  }
   bool intrinsic() const { return !grid.nxs.empty(); }
   // The weights kept (HeatLaplacianOptions::stored_weights_bytes), empty when not: tile t's
   // candidates after its first row are col[offset[t], offset[t + 1]), as grid positions, its row
@@ -308,8 +295,8 @@ void for_each_upper_tile(const Part& part, F&& f) {
     detail::TileBuffer buffer;  // this thread's
     double* g[detail::kTileRows];
 #pragma omp for schedule(dynamic, 1)
-    for (Eigen::Index layer = 0; layer < part.grid.layers(); ++layer)
-      for (Eigen::Index tile = part.layer_tile[static_cast<std::size_t>(layer)]; tile < part.layer_tile[static_cast<std::size_t>(layer + 1)];
+    for (Eigen::Index layer = 0; layer < part.layers.layers(); ++layer)
+      for (Eigen::Index tile = part.layers.tile[static_cast<std::size_t>(layer)]; tile < part.layers.tile[static_cast<std::size_t>(layer + 1)];
            ++tile) {
         const Eigen::Index first = part.tiles.first(tile);
         const int rows = part.tiles.rows(tile);
@@ -347,19 +334,14 @@ const Eigen::MatrixXd& received(const Part& part, const Eigen::MatrixXd& z, std:
   for (Eigen::Index it = 0; it < n; ++it)
     for (Eigen::MatrixXd& m : image) m.col(it).setZero();
   if (counts) counts->assign(static_cast<std::size_t>(part.tiles.size()), 0);
-  const Eigen::Index layers = part.grid.layers();
   for_each_upper_tile(part, [&](Eigen::Index layer, Eigen::Index tile, Eigen::Index first, int rows, const int* col, const double* const* g,
                                 std::size_t count) {
     if (counts) (*counts)[static_cast<std::size_t>(tile)] = count;
     double* target[kMaxLayersAhead + 1];
     Eigen::Index end[kMaxLayersAhead + 1];
-    const int segments = static_cast<int>(std::min<Eigen::Index>(ahead, layers - 1 - layer)) + 1;
     // The candidates are in the grid's order: those of each layer ahead follow each other.
-    for (int d = 0; d < segments; ++d) {
-      target[d] = image[static_cast<std::size_t>(d)].data();
-      const int next_layer = static_cast<int>(part.layer_item[static_cast<std::size_t>(layer + d + 1)]);
-      end[d] = d + 1 == segments ? static_cast<Eigen::Index>(count) : std::lower_bound(col, col + count, next_layer) - col;
-    }
+    const int segments = part.layers.segment_ends(layer, ahead, col, count, end);
+    for (int d = 0; d < segments; ++d) target[d] = image[static_cast<std::size_t>(d)].data();
     const double* z_rows[detail::kTileRows];
     double* out[detail::kTileRows];
     for (int r = 0; r < rows; ++r) z_rows[r] = z.col(first + r).data(), out[r] = image[0].col(first + r).data();
@@ -405,7 +387,7 @@ double store_weights(Part& part, const std::vector<std::size_t>& counts, double 
 // sum_j g_ij mu_j, from the products' own loop on mu (the diagonal then cancels the products'
 // constant part to rounding), which also counts each tile's candidates (for store_weights).
 void prepare_products(detail::SurfacePart& part, std::vector<std::size_t>* candidates) {
-  part.find_layers();
+  part.layers = detail::TileLayers(part.grid, part.tiles);
   std::vector<Eigen::MatrixXd> image;
   const Eigen::MatrixXd& sums = received(part, part.mass_in_grid.transpose(), image, candidates);
   part.row_sum = sums.row(0).transpose();

@@ -18,6 +18,27 @@ int Tiles::rows(Eigen::Index tile) const {
   return static_cast<int>(std::min(next, first_[t] + kTileRows) - first_[t]);
 }
 
+TileLayers::TileLayers(const Grid& grid, const Tiles& tiles) {
+  const Eigen::Index per_layer = grid.cells_per_layer(), layers = grid.layers();
+  item.resize(static_cast<std::size_t>(layers + 1));
+  tile.resize(static_cast<std::size_t>(layers + 1));
+  Eigen::Index t = 0;
+  for (Eigen::Index l = 0; l <= layers; ++l) {
+    const Eigen::Index first = grid.start[static_cast<std::size_t>(l * per_layer)];
+    while (t < tiles.size() && tiles.first(t) < first) ++t;
+    item[static_cast<std::size_t>(l)] = first, tile[static_cast<std::size_t>(l)] = t;
+  }
+}
+
+int TileLayers::segment_ends(Eigen::Index layer, int reach, const int* col, std::size_t count, Eigen::Index* end) const {
+  const int segments = static_cast<int>(std::min<Eigen::Index>(reach, layers() - 1 - layer)) + 1;
+  for (int d = 0; d < segments; ++d) {
+    const auto next = static_cast<int>(item[static_cast<std::size_t>(layer + d + 1)]);
+    end[d] = d + 1 == segments ? static_cast<Eigen::Index>(count) : std::lower_bound(col, col + count, next) - col;
+  }
+  return segments;
+}
+
 void WeightRow::resize(std::size_t n) {
   storage_.resize(static_cast<std::size_t>(gaussian_weights_room(static_cast<Eigen::Index>(n))) + 8);
   const auto address = reinterpret_cast<std::uintptr_t>(storage_.data());

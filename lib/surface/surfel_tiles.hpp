@@ -35,6 +35,24 @@ private:
   Eigen::Index items_ = 0;
 };
 
+// A grid's layers of cells along its slowest axis (Grid::layers): layer l's items start at
+// item[l], its tiles at tile[l] (tiles never straddle a cell); item[layers()] and tile[layers()]
+// are the ends. A pair's second item lies at most grid.reach layers after its first, so a pass
+// that takes each pair once, from its first item's tile, and runs the tiles of a layer in order
+// on one thread writes only to its layer and the next grid.reach ones: one block of results per
+// layer distance, added in that order at the end, gives the same bits whatever the threads (the
+// matrix-free products, matrix_free.cpp; the curvature pass, intrinsic_kernel.cpp).
+struct TileLayers {
+  std::vector<Eigen::Index> item, tile;
+  TileLayers() = default;
+  TileLayers(const Grid& grid, const Tiles& tiles);
+  Eigen::Index layers() const { return static_cast<Eigen::Index>(item.size()) - 1; }
+  /// Where the candidates of a tile of `layer` (grid positions in the grid's order, `count` of
+  /// them from `col`) pass into each next layer: end[d] for d = 0 .. segments - 1, the last at
+  /// count, segments = min(reach, layers - 1 - layer) + 1 (returned).
+  int segment_ends(Eigen::Index layer, int reach, const int* col, std::size_t count, Eigen::Index* end) const;
+};
+
 // A row's values, 64-byte aligned, with room for gaussian_weights_wide's padding.
 class WeightRow {
 public:
@@ -48,7 +66,7 @@ private:
 
 // One thread's buffers for a tile: the candidates (grid positions, coordinates, normals, one
 // value of the caller's per item), then per row two arrays of the candidates' length (the
-// products: chords and weights; the curvature pass: its terms).
+// products: chords and weights; the curvature pass: tangent chords and weights).
 struct TileBuffer {
   std::vector<int> col;
   std::vector<double> x, y, z, nx, ny, nz, value;

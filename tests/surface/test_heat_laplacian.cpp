@@ -471,9 +471,11 @@ TEST(SurfaceIntrinsicKernel, MeasuresWithoutNormalsAreRefused) {
   EXPECT_THROW(heat_laplacian(d.surfels, d.mu, o), Error);
 }
 
-// The curvature pass takes rows a tile at a time over shared candidates (surfel_tiles.hpp):
-// each row's K must be the definition's over all its neighbours within the cut, whatever the
-// grid's cells (the assembled operator's grid has 4 cells a cut, the products' 2). Written out
+// The curvature pass takes rows a tile at a time over shared candidates (surfel_tiles.hpp), each
+// pair once from its first row's tile: each row's K must be the definition's over all its
+// neighbours within the cut, whatever the grid's cells (the assembled operator's grid has 4
+// cells a cut, the products' 2, with the longest axis slowest), and the same bits on 1, 2 or 3
+// threads (several layers of cells write into the same rows' sums). Written out
 // here over every pair, on II normals: noisy on the sphere and torus, so that neighbours across a
 // tile's edge matter; and on label 29 of the 2 mm JHU atlas, which has pairs of normals 90
 // degrees apart up to rounding (|n_i + n_j|^2 = 2, the test's boundary): an FMA in the vectorized
@@ -512,14 +514,25 @@ TEST(SurfaceIntrinsicKernel, CurvatureFromTilesEqualsTheDefinitionOverAllPairs) 
       truth[i] = 2 * mean * mean - turn / weight;
       scale[i] = 2 * mean * mean + turn / weight;
     }
-    for (double cells_per_cut : {2.0, 4.0}) {
-      const surface::detail::Grid grid(x, kernel.cut, &nrm, cells_per_cut);
-      const Eigen::VectorXd K = surface::detail::estimated_gaussian_curvature(grid, x, nrm, mu.mu, kernel);
-      Eigen::Index worst = 0;
-      const double error = ((K - truth).cwiseAbs().array() / scale.array()).maxCoeff(&worst);
-      EXPECT_LE(error, 1e-9) << name << ", " << cells_per_cut << " cells a cut: surfel " << worst << " K " << K[worst] << " against "
-                             << truth[worst];
-    }
+    for (const bool longest_slowest : {false, true})
+      for (double cells_per_cut : {2.0, 4.0}) {
+        const surface::detail::Grid grid(x, kernel.cut, &nrm, cells_per_cut, longest_slowest);
+        auto k_on = [&](int threads) {
+          return on_threads(threads, [&] { return surface::detail::estimated_gaussian_curvature(grid, x, nrm, mu.mu, kernel); });
+        };
+        const Eigen::VectorXd K = k_on(2);
+        Eigen::Index worst = 0;
+        const double error = ((K - truth).cwiseAbs().array() / scale.array()).maxCoeff(&worst);
+        EXPECT_LE(error, 1e-9) << name << ", " << cells_per_cut << " cells a cut: surfel " << worst << " K " << K[worst] << " against "
+                               << truth[worst];
+        // Each pair once, its shares added layer distance by layer distance: the same bits on any threads.
+        for (int threads : {1, 3}) {
+          const Eigen::VectorXd other = k_on(threads);
+          EXPECT_EQ(std::memcmp(K.data(), other.data(), sizeof(double) * static_cast<std::size_t>(n)), 0)
+              << name << ", " << cells_per_cut << " cells a cut, " << threads << " threads";
+        }
+        EXPECT_GE(grid.layers(), 2) << name;  // layers that write into the same rows, on different threads
+      }
   }
 }
 
