@@ -57,6 +57,18 @@ inline Eigen::Index lobpcg_block(Eigen::Index n, int count) {
   return n < count + guards ? n : count + guards;
 }
 
+/// The block for `count` eigenpairs when estimates of the smallest eigenvalues are known
+/// (ascending, past the usual `block`: a coarse problem's, its guards' included), so that the
+/// block ends at a gap: LOBPCG's last wanted pairs converge at a rate set by the ratio of the
+/// last wanted eigenvalue to the first one past the block.
+/// - Where the usual block ends inside the last wanted eigenvalue's cluster (the first past it
+///   within 10% of it), it grows to the first estimate 10% above the last wanted one, when that
+///   is within max_block (else stays).
+/// - Otherwise it drops its last columns whose estimates are within 2% of the first one past it:
+///   they leave the gap where it was and cost a column in every product.
+/// Returns block when the estimates do not reach past it.
+Eigen::Index block_at_a_gap(const Eigen::VectorXd& estimates, int count, Eigen::Index block, Eigen::Index max_block);
+
 /// A fixed pseudo-random start block (entries in [-0.5, 0.5)): reproducible runs.
 Eigen::MatrixXd lobpcg_start(Eigen::Index n, Eigen::Index b);
 

@@ -642,7 +642,9 @@ private:
 // their summed area and mean normal. It is a quadrature of the same heat operator on about a
 // quarter of the points with a twentieth of the pairs, and its eigenvalues are the surfels' own
 // within 0.1% (a torus at h = 0.025). Its `block` smallest eigenvectors, the guards' too, spread
-// back to the surfels (each takes its aggregate's value), are the start: LOBPCG's iterations
+// back to the surfels (each takes its aggregate's value), are the start (only the `count` wanted
+// ones converge to kCoarseTolerance, the others need not, as in the surfels' problem: 7 coarse
+// iterations instead of 9 on a sphere at h = 0.0125, the same fine ones): LOBPCG's iterations
 // are set by how far the start is from the answer (docs/benchmarks.md: 16-17 iterations from a
 // random start, 11-12 from this one, on a torus and a sphere at h = 0.025). The guards matter:
 // with random ones the last wanted column, one of a pair that the count splits, took 3
@@ -657,18 +659,11 @@ constexpr Eigen::Index kCoarseMinRows = 5000;
 // (1e-8 instead: the same fine iterations, twice the coarse ones).
 constexpr double kCoarseTolerance = 1e-4;
 constexpr int kCoarseIterations = 100;
-// The block ends past a gap after the last wanted eigenvalue: LOBPCG's last wanted pairs
-// converge at a rate set by lambda_count-1 / lambda_b, b the block's size, and where the usual
-// guards end inside a cluster that the wanted ones also fall in (50 eigenpairs of a sphere:
-// l = 7 is 15 eigenvalues, from the 50th to the 64th, within 0.3% of each other) that ratio is 1
-// to 0.3%: 31 iterations on the sphere at h = 0.025 against 14 with the block taken past the
-// cluster (docs/benchmarks.md). The coarse eigenvalues (the guards' too) show the clusters; the
-// block grows to the first that is kClusterGap above the last wanted one, when the coarse block
-// reaches it, else stays.
-constexpr double kClusterGap = 1.1;
 
-// The start of `block` columns for `count` eigenpairs, or of more (at most max_block) where the
-// coarse spectrum shows that the block would end inside the last wanted eigenvalue's cluster.
+// The start for `count` eigenpairs: `block` columns, or as many as make the block end at a gap
+// of the coarse spectrum (block_at_a_gap, core/lobpcg.hpp: more, at most max_block, where the
+// block would end inside the last wanted eigenvalue's cluster; fewer where it ends inside the
+// cluster of the first eigenvalue past it).
 Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p, const std::vector<Eigen::Index>& support,
                              const Eigen::VectorXd& mass, int count, Eigen::Index block, Eigen::Index max_block) {
   const detail::SurfacePart& fine = op.part(p);
@@ -726,16 +721,14 @@ Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p,
   std::iota(every_row.begin(), every_row.end(), Eigen::Index{0});
   auto apply_c = [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { symmetric_part_product(coarse, every_row, s, x, y); };
   const GraphPreconditioner preconditioner(positions, area, cell, t, fine.kernel.cut);
-  const auto wanted = static_cast<int>(block);
   const digilap::detail::LobpcgResult result = digilap::detail::lobpcg(
       apply_c, [&](const digilap::detail::BlockIn& x, digilap::detail::BlockOut y) { preconditioner.apply(x, y); },
-      digilap::detail::lobpcg_start(m, digilap::detail::lobpcg_block(m, wanted)), wanted, kCoarseTolerance * c, kCoarseIterations,
-      nullptr, true);
+      digilap::detail::lobpcg_start(m, digilap::detail::lobpcg_block(m, static_cast<int>(block))), count, kCoarseTolerance * c,
+      kCoarseIterations, nullptr, true);
   if (!result.converged) return {};
-  const Eigen::VectorXd& values = result.values;  // the wanted `block`, then the coarse guards
-  Eigen::Index columns = block;
-  while (columns < std::min(max_block, values.size()) && values[columns] < kClusterGap * values[count - 1]) ++columns;
-  if (columns == values.size() || values[columns] < kClusterGap * values[count - 1]) columns = block;  // no gap within reach
+  const Eigen::VectorXd& values = result.values;  // the `count` wanted, then the rest of the coarse block
+  // The coarse eigenvalues (the guards' too) show the clusters: the block ends at a gap.
+  const Eigen::Index columns = digilap::detail::block_at_a_gap(values, count, block, max_block);
   // The aggregates' eigenvectors u = S y, each surfel taking its aggregate's, in the symmetric
   // form M^(1/2) u of the surfels' problem.
   Eigen::MatrixXd start(n, columns);

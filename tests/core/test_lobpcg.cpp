@@ -88,6 +88,50 @@ TEST(Lobpcg, BlockHoldsBetweenFourAndTenGuards) {
   EXPECT_EQ(digilap::detail::lobpcg_block(55, 50), 55);
 }
 
+// A sphere's spectrum as a coarse problem estimates it: l (l + 1), 2 l + 1 times, each cluster
+// split by 1e-4 (the digital sphere splits them by 5e-4 at most, and its clusters are 1.5
+// (l = 4 to 5) to 3 (l = 1 to 2) apart), `size` of them.
+Eigen::VectorXd sphere_estimates(Eigen::Index size) {
+  Eigen::VectorXd values(size);
+  Eigen::Index k = 0;
+  for (int l = 0; k < size; ++l)
+    for (int m = 0; m <= 2 * l && k < size; ++m) values[k++] = l * (l + 1) * (1 + 1e-4 * m / (2 * l + 1));
+  return values;
+}
+
+TEST(Lobpcg, BlockEndsAtAGap) {
+  using digilap::detail::block_at_a_gap;
+  const Eigen::VectorXd sphere = sphere_estimates(100);
+  // 20 eigenpairs: the usual 30 columns end 5 into l = 5 (indices 25 ... 35); its 5 columns
+  // there would leave the first eigenvalue past the block at l = 5's: the block ends with l = 4.
+  EXPECT_EQ(block_at_a_gap(sphere, 20, 30, 60), 25);
+  // 16 (l = 0 ... 3): the usual 24 end with l = 4, all of its 9 past the wanted ones: no guards.
+  EXPECT_EQ(block_at_a_gap(sphere, 16, 24, 48), 16);
+  // 50: the 50th opens l = 7 (indices 49 ... 63), which the usual 60 would cut: the block takes
+  // all of it, when the limit allows, else stays.
+  EXPECT_EQ(block_at_a_gap(sphere, 50, 60, 120), 64);
+  EXPECT_EQ(block_at_a_gap(sphere, 50, 60, 63), 60);
+  // A block that ends at a gap stays: 16 wanted in a block of 25 (l = 0 ... 4).
+  EXPECT_EQ(block_at_a_gap(sphere, 16, 25, 50), 25);
+  // Estimates that do not reach past the block: it stays.
+  EXPECT_EQ(block_at_a_gap(sphere.head(30), 20, 30, 60), 30);
+  // A spectrum without clusters, each 1.2% above the one before (the 31st 14% above the 20th:
+  // no growth): the block loses only the column within 2% of the first eigenvalue past it,
+  // which then falls by at most 2%.
+  Eigen::VectorXd even(80);
+  for (Eigen::Index k = 0; k < even.size(); ++k) even[k] = std::exp(0.012 * static_cast<double>(k));
+  const Eigen::Index b = block_at_a_gap(even, 20, 30, 60);
+  EXPECT_EQ(b, 29);
+  EXPECT_GE(1.02 * even[b], even[30]);
+  // Where the first past the usual block is within 10% of the last wanted one (1% apart), the
+  // block grows to the first 10% above it instead (1.31 against 1.1 x 1.19: 31 columns).
+  for (Eigen::Index k = 0; k < even.size(); ++k) even[k] = 1 + 0.01 * static_cast<double>(k);
+  EXPECT_EQ(block_at_a_gap(even, 20, 30, 60), 31);
+  // Steps above 2% (k + 1: the 31st is 3.3% above the 30th): the block stays.
+  for (Eigen::Index k = 0; k < even.size(); ++k) even[k] = 1 + static_cast<double>(k);
+  EXPECT_EQ(block_at_a_gap(even, 20, 30, 60), 30);
+}
+
 }  // namespace
 
 // Bytes the allocator hands out now (the heap's and the mmapped chunks').

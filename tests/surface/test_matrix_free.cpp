@@ -277,7 +277,7 @@ TEST(MatrixFreeSurface, BlockGoesPastTheClusterOfTheLastWantedEigenvalue) {
   // eigenvalues that the digital sphere splits by 0.3% at most. The usual block (50 + 10 guards)
   // would end inside that cluster, and the last wanted pair converge at the rate of a 0.3% gap
   // (23 iterations here); the coarse start sees the cluster and takes the block past it
-  // (lib/surface/matrix_free.cpp, kClusterGap). So 50 take about the iterations of 49, whose
+  // (block_at_a_gap, lib/core/lobpcg.hpp). So 50 take about the iterations of 49, whose
   // block ends well past a gap (12), and give the same first 49 eigenvalues within the
   // solver's promise (1e-9 relative, as CoarseStartGivesTheSameSpectrumInFewerProducts).
   const auto sphere = posed(make_surface("sphere"));
