@@ -24,8 +24,8 @@ constexpr int kSums = 3;
 // degrees): into rho2 (0 elsewhere) and into w (+infinity elsewhere, which
 // gaussian_weights_wide turns into a weight of exactly 0). rho^2, like the pair's other terms
 // (tile_shares), is the same for (i, j) and (j, i) bit for bit (d and e change sign, s does
-// not), so each pair is computed once. A loop without branches, so that it vectorizes; the
-// reciprocal (surfel_grid.hpp) takes |s|^2 where the pair counts and 1 elsewhere.
+// not), so each pair is computed once. A loop without branches, so that it vectorizes; rho^2 is
+// the intrinsic distance's own (tangent_chord, surfel_grid.hpp), bit for bit.
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void upper_tangent_chords(
     const TileBuffer& b, std::size_t count, const double* q, const double* nq, double cut2, int self, double* __restrict w,
     double* __restrict rho2) {
@@ -34,14 +34,10 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   const double *__restrict nx = b.nx.data(), *__restrict ny = b.ny.data(), *__restrict nz = b.nz.data();
   const int* __restrict col = b.col.data();
   for (std::size_t k = 0; k < count; ++k) {
-    const double dx = x[k] - q[0], dy = y[k] - q[1], dz = z[k] - q[2];
-    const double sx = nx[k] + nq[0], sy = ny[k] + nq[1], sz = nz[k] + nq[2];
-    const double chord2 = dx * dx + dy * dy + dz * dz;
-    const double s2 = sx * sx + sy * sy + sz * sz, height = dx * sx + dy * sy + dz * sz;
-    const bool counts = s2 > 2 && chord2 > 0 && chord2 <= cut2 && col[k] > self;
-    const double r2 = chord2 - height * height * reciprocal_of_normals_sum(counts ? s2 : 1.0);
-    w[k] = counts ? r2 : kOut;
-    rho2[k] = counts ? r2 : 0.0;
+    const TangentChord t = tangent_chord(x, y, z, nx, ny, nz, k, q, nq);
+    const bool counts = t.shared && t.chord2 > 0 && t.chord2 <= cut2 && col[k] > self;
+    w[k] = counts ? t.rho2 : kOut;
+    rho2[k] = counts ? t.rho2 : 0.0;
   }
 }
 

@@ -8,22 +8,18 @@
 namespace digilap::surface::detail {
 
 namespace {
-// Candidate u's chord c2 and intrinsic squared distance from q (normal nq), returned. No double
-// division (reciprocal_of_normals_sum, and 1 / 12 as a product); the reciprocal takes |s|^2
-// where it is kept and 1 elsewhere.
+// Candidate u's chord c2 and intrinsic squared distance from q (normal nq), returned: the tangent
+// chord (tangent_chord, surfel_grid.hpp) plus the geodesic term, 1 / 12 as a product (no double
+// division).
 __attribute__((always_inline)) inline double intrinsic_square(const double* __restrict x, const double* __restrict y,
                                                              const double* __restrict z, const double* __restrict nx,
                                                              const double* __restrict ny, const double* __restrict nz, std::size_t u,
                                                              const double* q, const double* nq, double& c2) {
-  const double dx = x[u] - q[0], dy = y[u] - q[1], dz = z[u] - q[2];
-  const double sx = nx[u] + nq[0], sy = ny[u] + nq[1], sz = nz[u] + nq[2];
+  const TangentChord t = tangent_chord(x, y, z, nx, ny, nz, u, q, nq);
   const double ex = nx[u] - nq[0], ey = ny[u] - nq[1], ez = nz[u] - nq[2];
-  c2 = dx * dx + dy * dy + dz * dz;
-  const double s2 = sx * sx + sy * sy + sz * sz;
-  const double height = dx * sx + dy * sy + dz * sz, bend = dx * ex + dy * ey + dz * ez;
-  const bool shared = s2 > 2;  // a common tangent plane: normals less than 90 degrees apart
-  const double intrinsic = c2 - height * height * reciprocal_of_normals_sum(shared ? s2 : 1.0) + bend * bend * (1.0 / 12);
-  return shared ? intrinsic : c2;
+  const double bend = t.dx * ex + t.dy * ey + t.dz * ez;
+  c2 = t.chord2;
+  return t.shared ? t.rho2 + bend * bend * (1.0 / 12) : t.chord2;
 }
 }  // namespace
 

@@ -57,6 +57,30 @@ inline double reciprocal_of_normals_sum(double s) {
   y = y * (2.0 - s * y);
   return y + y * (1.0 - s * y);
 }
+
+// Candidate u against q (normal nq), the start of both the intrinsic distance
+// (intrinsic_distances) and the curvature pass's tangent chord (intrinsic_kernel.cpp), written
+// once so that the two give the same bits: the chord d = x_u - q, |d|^2, and the chord in the mean
+// tangent plane |d|^2 - <d, s>^2 / |s|^2 (s = n_u + nq) where the normals share one (`shared`,
+// |s|^2 > 2: less than 90 degrees apart; elsewhere rho2 is not that and is not used). Like
+// reciprocal_of_normals_sum, only for the files built without FMA contraction.
+struct TangentChord {
+  double dx, dy, dz, chord2, rho2;
+  bool shared;
+};
+__attribute__((always_inline)) inline TangentChord tangent_chord(const double* __restrict x, const double* __restrict y,
+                                                                const double* __restrict z, const double* __restrict nx,
+                                                                const double* __restrict ny, const double* __restrict nz, std::size_t u,
+                                                                const double* q, const double* nq) {
+  TangentChord t;
+  t.dx = x[u] - q[0], t.dy = y[u] - q[1], t.dz = z[u] - q[2];
+  const double sx = nx[u] + nq[0], sy = ny[u] + nq[1], sz = nz[u] + nq[2];
+  t.chord2 = t.dx * t.dx + t.dy * t.dy + t.dz * t.dz;
+  const double s2 = sx * sx + sy * sy + sz * sz, height = t.dx * sx + t.dy * sy + t.dz * sz;
+  t.shared = s2 > 2;
+  t.rho2 = t.chord2 - height * height * reciprocal_of_normals_sum(t.shared ? s2 : 1.0);
+  return t;
+}
 }  // namespace
 
 // A row's columns and squared distances, before sorting (one per thread, reused).
