@@ -261,8 +261,9 @@ bool unit_columns(const ConstBlock& s) {
 // other) the ratio is 1 to 0.3%: 31 iterations on the sphere at h = 0.025 against 14 with the
 // block taken past the cluster. Shrinking: a sphere's 20 eigenpairs, whose usual 30 columns end
 // 5 columns into l = 5 (11 eigenvalues within 0.05% of each other), take 25 columns, the block
-// ending with l = 4 (h = 0.0125: 301 -> 256 column products, 11 -> 12 iterations, the run about
-// 5% faster; docs/benchmarks.md). The first eigenvalue past the block falls by at most 2%.
+// ending with l = 4 (h = 0.0125: 301 -> 256 column products for one more iteration, 11 -> 12:
+// the same wall time within noise, a peak 6% lower; 16 eigenpairs, no guards: 26% lower;
+// docs/benchmarks.md). The first eigenvalue past the block falls by at most 2%.
 Eigen::Index block_at_a_gap(const Eigen::VectorXd& estimates, int count, Eigen::Index block, Eigen::Index max_block) {
   constexpr double kClusterGap = 1.1, kSameCluster = 1.02;
   if (count < 1 || block < count || estimates.size() <= block) return block;
