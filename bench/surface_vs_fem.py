@@ -57,7 +57,8 @@ def main():
     parser.add_argument("--smoothing", type=int, default=10)
     parser.add_argument("--threads", default="2")
     parser.add_argument("--variants", default="assembled,matrix-free",
-                        help="digilap runs: assembled and/or matrix-free, each optionally @tolerance (matrix-free@1e-8)")
+                        help="digilap runs: assembled and/or matrix-free, each optionally @tolerance (matrix-free@1e-8) "
+                             "and :key=value options of digilap-spectrum (matrix-free:ct=0.05 passes --ct 0.05)")
     args = parser.parse_args()
     env = dict(os.environ, OMP_NUM_THREADS=args.threads, OPENBLAS_NUM_THREADS=args.threads)
     work = pathlib.Path(tempfile.mkdtemp(prefix="surface_vs_fem_"))
@@ -74,10 +75,14 @@ def main():
 
         digilap_runs = []
         for variant in args.variants.split(","):
-            out = work / ("out_%s_%g_%s" % (shape, h, variant.replace("@", "_")))
-            kind, _, tolerance = variant.partition("@")  # matrix-free@1e-8: with --tolerance 1e-8
+            out = work / ("out_%s_%g_%s" % (shape, h, re.sub(r"[@:=]", "_", variant)))
+            head, *options = variant.split(":")  # matrix-free:ct=0.05: with --ct 0.05
+            kind, _, tolerance = head.partition("@")  # matrix-free@1e-8: with --tolerance 1e-8
             flags = ["--matrix-free"] if kind == "matrix-free" else []
             flags += ["--tolerance", tolerance] if tolerance else []
+            for option in options:
+                key, _, value = option.partition("=")
+                flags += ["--" + key, value]
             run, d_wall, d_peak = timed([args.app, "--volume", str(path), "--h", str(h), "--count", str(args.count), "--draw", "0",
                                          "--quiet", "--out", str(out)] + flags)
             if run.returncode == 0:

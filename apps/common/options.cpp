@@ -75,7 +75,8 @@ void add_surface_kernel_option(CLI::App& app, SurfaceKernel& kernel) {
 
 void add_operator_options(CLI::App& app, HeatLaplacianOptions& o) {
   app.add_option("--t", o.t, "Heat time t (0: ct h^(2/3) l^(4/3), l the length scale)")->capture_default_str();
-  app.add_option("--ct", o.c_t, "Constant of the default heat time t = ct h^(2/3) l^(4/3)")->check(kPositiveFinite)->capture_default_str();
+  app.add_option("--ct", o.c_t, "Constant of the default heat time t = ct h^(2/3) l^(4/3) (spectra of smooth "
+                 "surfaces: 0.05 is as accurate in less time, docs/accuracy.md)")->check(kPositiveFinite)->capture_default_str();
   app.add_option("--k", o.k, "Kernel cut at k * sqrt(t)")->check(kPositiveFinite)->capture_default_str();
   const std::map<std::string, DistanceMode> distances{{"geodesic", DistanceMode::Geodesic},
                                                       {"euclidean", DistanceMode::Euclidean}};
