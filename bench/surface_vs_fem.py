@@ -32,9 +32,9 @@ SHAPES = {
 }
 
 
-def timed(command):
-    """(stdout, wall seconds, peak MB) of a fresh process under /usr/bin/time -v."""
-    run = subprocess.run(["/usr/bin/time", "-v"] + command, capture_output=True, text=True)
+def timed(command, env):
+    """(stdout, wall seconds, peak MB) of a fresh process under /usr/bin/time -v, with `env`."""
+    run = subprocess.run(["/usr/bin/time", "-v"] + command, capture_output=True, text=True, env=env)
     wall = re.search(r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)", run.stderr)
     peak = re.search(r"Maximum resident set size \(kbytes\): (\d+)", run.stderr)
     seconds = 0.0
@@ -58,7 +58,7 @@ def main():
     parser.add_argument("--threads", default="2")
     parser.add_argument("--variants", default="assembled,matrix-free",
                         help="digilap runs: assembled and/or matrix-free, each optionally @tolerance (matrix-free@1e-8) "
-                             "and :key=value options of digilap-spectrum (matrix-free:ct=0.05 passes --ct 0.05)")
+                             "and :key=value or :flag options of digilap-spectrum (matrix-free:ct=0.05 passes --ct 0.05)")
     args = parser.parse_args()
     env = dict(os.environ, OMP_NUM_THREADS=args.threads, OPENBLAS_NUM_THREADS=args.threads)
     work = pathlib.Path(tempfile.mkdtemp(prefix="surface_vs_fem_"))
@@ -80,11 +80,11 @@ def main():
             kind, _, tolerance = head.partition("@")  # matrix-free@1e-8: with --tolerance 1e-8
             flags = ["--matrix-free"] if kind == "matrix-free" else []
             flags += ["--tolerance", tolerance] if tolerance else []
-            for option in options:
-                key, _, value = option.partition("=")
-                flags += ["--" + key, value]
+            for option in options:  # key=value, or a flag alone (matrix-free:one-heat-time)
+                key, equals, value = option.partition("=")
+                flags += ["--" + key] + ([value] if equals else [])
             run, d_wall, d_peak = timed([args.app, "--volume", str(path), "--h", str(h), "--count", str(args.count), "--draw", "0",
-                                         "--quiet", "--out", str(out)] + flags)
+                                         "--quiet", "--out", str(out)] + flags, env)
             if run.returncode == 0:
                 table = np.genfromtxt(out / "eigenvalues.csv", delimiter=",", names=True)
                 ours = np.sort(table["laplace_beltrami"])
@@ -97,7 +97,7 @@ def main():
         script = ("import sys, numpy as np; sys.path.insert(0, %r); import mesh_fem; "
                   "r = mesh_fem.shape_dna(np.load(%r).astype(bool), %r, %d, %d); "
                   "print(r['vertices'], *r['eigenvalues'])" % (str(REFERENCE), str(path), h, args.count, args.smoothing))
-        run, f_wall, f_peak = timed(["/usr/bin/python3", "-c", script])
+        run, f_wall, f_peak = timed(["/usr/bin/python3", "-c", script], env)
         fields = run.stdout.split()
         vertices, theirs = int(fields[0]), np.array([float(v) for v in fields[1:]])
         f_error = "%.2f%%" % (100 * worst(theirs, exact, args.count))
