@@ -2,7 +2,8 @@
 // built once, then Y = A X for blocks of 1, 8 and 30 columns (30 is the LOBPCG block of 20
 // eigenpairs). Prints one table row per block: the first product (cold: its memory touched for
 // the first time) and the best of 5 after it (warm), seconds, and pairs a second.
-//   digilap-bench-surface-products [H [SURFACE [KERNEL]]]     (defaults 0.025 torus intrinsic)
+//   digilap-bench-surface-products [H [SURFACE [KERNEL [CT]]]]  (defaults 0.025 torus intrinsic 0.1; CT: the heat
+//   time's c_t, docs/accuracy.md "The heat time for eigenvalues")
 #include "digilap/surface/matrix_free.hpp"
 #include "digilap/surface/measures.hpp"
 #include "digilap/surface/normals.hpp"
@@ -24,6 +25,7 @@ int main(int argc, char** argv) {
   const auto shape = make_surface(argc > 2 ? argv[2] : "torus:R=1,r=0.4");
   HeatLaplacianOptions options;
   if (argc > 3 && std::strcmp(argv[3], "chord") == 0) options.surface_kernel = SurfaceKernel::Chord;
+  if (argc > 4) options.c_t = std::atof(argv[4]);
   const VoxelSet voxels = digitize(*shape, h);
   const SurfelSet surfels = extract_surfels(voxels);
   const SurfelMeasures mu = measures(surfels, ii_normals(voxels, surfels));
