@@ -82,7 +82,8 @@ int surface_spectrum(const app::FrontEndOptions& fe, const HeatLaplacianOptions&
                 "eigenvector entries the heat-kernel average of their neighbours\n", static_cast<long>(s.massless));
   const bool sphere = shape && shape->name() == "sphere";
   const double r2 = sphere ? shape->area() / (4 * kPi) : 0;
-  std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t, their Laplace-Beltrami estimates%s\n",
+  std::printf("lambda: the operator's eigenvalues; mu, their Laplace-Beltrami estimates: lambda = F(mu t)/t inverted, F the cut kernel's\n"
+              "symbol (1 - exp(-mu t) less the cut's tail, docs/accuracy.md)%s\n",
               sphere ? "; exact: l (l + 1) / r^2, multiplicity 2l + 1" : "");
   std::printf("| k | lambda_k | mu_k |%s\n|---|---|---|%s\n", sphere ? " l | l(l+1)/r^2 | rel. diff |" : "", sphere ? "---|---|---|" : "");
   std::filesystem::create_directories(out_dir);
@@ -275,8 +276,8 @@ int main(int argc, char** argv) {
                     static_cast<long>(row_offset[part + 1] - row_offset[part]), P, P_est, t_part);
       else
         std::printf("# P = %.8g (estimated %.8g)\n", P, P_est);
-      std::printf("lambda: the operator's eigenvalues; mu = -ln(1 - lambda t)/t: their Laplace-Beltrami estimates "
-                  "(the heat kernel's bias undone); the ratio column uses mu\n");
+      std::printf("lambda: the operator's eigenvalues; mu: their Laplace-Beltrami estimates (the cut heat kernel's symbol inverted,\n"
+                  "about -ln(1 - lambda t)/t); the ratio column uses mu\n");
       std::printf("| k | m | lambda_k | (1-exp(-w^2 t))/t, w = 2 pi m/P_est | rel. diff | mu_k | (2 pi m/P)^2 | rel. diff | mu_k/mu_1 (m^2) | pair split |\n");
       std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
       for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {

@@ -11,7 +11,7 @@
 namespace digilap::detail {
 
 void laplace_beltrami_by_contour(Spectrum& s, const std::vector<Eigen::Index>& row_offset,
-                                 const std::vector<double>& contour_t) {
+                                 const std::vector<double>& contour_t, const KernelCut& kernel) {
   s.laplace_beltrami.resize(s.eigenvalues.size());
   s.undefined_estimates = 0;
   for (Eigen::Index k = 0; k < s.eigenvalues.size(); ++k) {
@@ -19,7 +19,7 @@ void laplace_beltrami_by_contour(Spectrum& s, const std::vector<Eigen::Index>& r
     s.eigenvectors.col(k).cwiseAbs().maxCoeff(&row);
     const auto contour = static_cast<std::size_t>(std::upper_bound(row_offset.begin(), row_offset.end(), row) - row_offset.begin() - 1);
     int undefined = 0;
-    s.laplace_beltrami[k] = laplace_beltrami_eigenvalues(s.eigenvalues.segment(k, 1), contour_t[contour], &undefined)[0];
+    s.laplace_beltrami[k] = laplace_beltrami_eigenvalues(s.eigenvalues.segment(k, 1), contour_t[contour], &undefined, kernel)[0];
     s.undefined_estimates += undefined;
   }
 }

@@ -37,7 +37,7 @@ Spectrum dense_spectrum(const Eigen::MatrixXd& A, const Eigen::VectorXd& mass, i
 /// its largest entry, whose time its estimate takes. Rows of contour c are
 /// [row_offset[c], row_offset[c + 1]).
 void laplace_beltrami_by_contour(Spectrum& s, const std::vector<Eigen::Index>& row_offset,
-                                 const std::vector<double>& contour_t);
+                                 const std::vector<double>& contour_t, const KernelCut& kernel);
 
 /// A fixed sign for each eigenvector: its entry of largest magnitude (the first, on ties) is
 /// positive. The solvers' own sign depends on rounding, hence on the number of threads.

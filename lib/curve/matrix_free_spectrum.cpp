@@ -240,7 +240,7 @@ Spectrum smallest_eigenpairs(const MatrixFreeLaplacian& op, const SpectrumOption
   // Contour by contour (the operator is block-diagonal by contour), then merged: repeated
   // eigenvalues of identical contours are all counted (spectrum_parts.hpp).
   Spectrum s = detail::merge_parts(contour_parts(op, o.count, o), op.rows(), o.count);
-  detail::laplace_beltrami_by_contour(s, op.row_offset(), op.contour_t());
+  detail::laplace_beltrami_by_contour(s, op.row_offset(), op.contour_t(), KernelCut{1, op.cut() / std::sqrt(op.t())});
   return s;
 }
 
@@ -252,7 +252,8 @@ std::vector<Spectrum> smallest_eigenpairs_per_contour(const MatrixFreeLaplacian&
   for (detail::SpectrumPart& part : contour_parts(op, o.count, o)) {
     spectra.push_back(std::move(part.spectrum));
     spectra.back().laplace_beltrami = laplace_beltrami_eigenvalues(spectra.back().eigenvalues, contour_t[spectra.size() - 1],
-                                                                   &spectra.back().undefined_estimates);
+                                                                   &spectra.back().undefined_estimates,
+                                                                   KernelCut{1, op.cut() / std::sqrt(op.t())});
   }
   return spectra;
 }

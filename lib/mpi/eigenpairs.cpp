@@ -301,7 +301,7 @@ DistributedSpectrum distributed_smallest_eigenpairs(const DistributedSurfaceOper
       weight[static_cast<std::size_t>(op.surface_of[static_cast<std::size_t>(q)])] += op.mu[q] * out.eigenvectors(q, k) * out.eigenvectors(q, k);
     all_reduce(ranks, weight, MPI_SUM);
     const auto c = static_cast<std::size_t>(std::max_element(weight.begin(), weight.end()) - weight.begin());
-    out.laplace_beltrami[k] = laplace_beltrami_eigenvalues(out.eigenvalues.segment(k, 1), op.surface_t[c])[0];
+    out.laplace_beltrami[k] = laplace_beltrami_eigenvalues(out.eigenvalues.segment(k, 1), op.surface_t[c], nullptr, KernelCut{2, op.k})[0];
   }
   return out;
 }

@@ -323,6 +323,7 @@ DistributedSurfaceOperator distributed_surface_operator(MPI_Comm comm, const std
   // Each surface's heat time, as surface::heat_laplacian's part layout gives it.
   const bool own_l = o.op.per_contour_time && o.op.t == 0 && o.op.length_scale == 0 && o.length_scale == 0;
   double cut = 0;
+  out.k = o.op.k;
   for (std::size_t c = 0; c < surfaces; ++c) {
     out.surface_t.push_back(heat_time(h, o.op, own_l ? surface_l[c] : l));
     cut = std::max(cut, o.op.k * std::sqrt(out.surface_t.back()));

@@ -172,7 +172,7 @@ Eigen::VectorXd curvature_factors(const Grid& grid, const Eigen::MatrixX3d& posi
                                   const Eigen::VectorXd& mu, const Kernel& kernel) {
   const double t = kernel.t;
   return estimated_gaussian_curvature(grid, positions, normals, mu, kernel).unaryExpr([t](double k) {
-    return 1 + std::clamp((2.0 / 3.0) * t * k, -kMaxCurvatureCorrection, kMaxCurvatureCorrection);
+    return 1 + std::clamp(0.5 * t * k, -kMaxCurvatureCorrection, kMaxCurvatureCorrection);
   });
 }
 

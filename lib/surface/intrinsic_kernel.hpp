@@ -1,11 +1,15 @@
 // Internal: the per-surfel factors of SurfaceKernel::Intrinsic (core/heat_kernel.hpp), shared by
 // the assembled operator, the matrix-free products and the distributed rows.
 //
-// The Gaussian of the geodesic distance has its own O(t) bias on a curved surface: its second
-// moment is short by (4/3) K t, K the Gaussian curvature (the sphere's l(l+1) comes out low by
-// that much). Each weight w_ij is multiplied by (1 + g_i)(1 + g_j), g = (2/3) t K, to first
-// order the same as 1 + (2/3) t (K_i + K_j), and written as a diagonal scaling: the weights'
-// measures mu_i (1 + g_i), the mass matrix unchanged.
+// The Gaussian of the geodesic distance has its own O(t) bias on a curved surface, K t Delta f
+// (K the Gaussian curvature) to first order, two terms of the mean of f over a geodesic circle
+// of radius rho (Gray and Willmore: f + rho^2 Delta f / 4 + rho^4 (Delta^2 f + (2/3) K Delta f) / 64
+// on a surface): the circles are short by K rho^2 / 6, which takes (4/3) K t off the second
+// moment, and the rho^4 term gives (1/3) K t back. So the sphere's l(l+1) comes out low by a
+// factor 1 - t (the kernel's symbol on the unit sphere, computed by quadrature: -0.995 t to
+// -1.002 t for l = 1 ... 4 at t = 1e-3; docs/accuracy.md). Each weight w_ij is multiplied by
+// (1 + g_i)(1 + g_j), g = t K / 2, to first order 1 + t (K_i + K_j) / 2, and written as a
+// diagonal scaling: the weights' measures mu_i (1 + g_i), the mass matrix unchanged.
 //
 // K comes from the positions and normals alone, as kernel-weighted moments over each surfel's
 // neighbours j (rho^2 = the tangent chord, w = exp(-rho^2 / 4t), sums weighted by w rho^2 mu_j):
@@ -36,7 +40,7 @@ inline void check_intrinsic_normals(const std::string& who, const SurfelMeasures
   if (!measures.normals.allFinite()) throw Error(who + ": the measures' normals are not all finite numbers");
 }
 
-/// The largest |g| = |(2/3) t K| applied.
+/// The largest |g| = |t K / 2| applied.
 constexpr double kMaxCurvatureCorrection = 0.25;
 
 /// K of each point of `grid` (built with normals over a part's points, rows local to it), from
@@ -46,7 +50,7 @@ constexpr double kMaxCurvatureCorrection = 0.25;
 Eigen::VectorXd estimated_gaussian_curvature(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
                                              const Eigen::VectorXd& mu, const Kernel& kernel);
 
-/// 1 + g_i, g_i = (2/3) t K_i clamped to [-kMaxCurvatureCorrection, kMaxCurvatureCorrection], K
+/// 1 + g_i, g_i = t K_i / 2 clamped to [-kMaxCurvatureCorrection, kMaxCurvatureCorrection], K
 /// from estimated_gaussian_curvature with the same arguments, t the kernel's.
 Eigen::VectorXd curvature_factors(const Grid& grid, const Eigen::MatrixX3d& positions, const Eigen::MatrixX3d& normals,
                                   const Eigen::VectorXd& mu, const Kernel& kernel);

@@ -906,7 +906,8 @@ Spectrum smallest_eigenpairs(const MatrixFreeSurfaceOperator& op, const Spectrum
     digilap::detail::fix_signs(s.eigenvectors);
     s.massless = static_cast<Eigen::Index>(massless.size());
   }
-  if (op.t() > 0) digilap::detail::laplace_beltrami_by_contour(s, op.row_offset(), op.part_t());
+  if (op.t() > 0)
+    digilap::detail::laplace_beltrami_by_contour(s, op.row_offset(), op.part_t(), KernelCut{2, op.cut() / std::sqrt(op.t())});
   return s;
 }
 

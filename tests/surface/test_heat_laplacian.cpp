@@ -283,11 +283,15 @@ Defaults defaults_pipeline(const Surface& s, double h) {
   return d;
 }
 // The worst relative error of the first 19 nonzero Laplace-Beltrami estimates against `exact`.
-double worst_spectrum_error(const SurfaceOperator& op, const Eigen::VectorXd& exact) {
+// Relative errors of the 19 nonzero Laplace-Beltrami estimates of the 20 smallest eigenpairs.
+Eigen::VectorXd spectrum_errors(const SurfaceOperator& op, const Eigen::VectorXd& exact) {
   SpectrumOptions o;
   o.count = 20;
   const Spectrum s = smallest_eigenpairs(op, o);
-  return ((s.laplace_beltrami.segment(1, 19) - exact.segment(1, 19)).cwiseQuotient(exact.segment(1, 19))).cwiseAbs().maxCoeff();
+  return (s.laplace_beltrami.segment(1, 19) - exact.segment(1, 19)).cwiseQuotient(exact.segment(1, 19));
+}
+double worst_spectrum_error(const SurfaceOperator& op, const Eigen::VectorXd& exact) {
+  return spectrum_errors(op, exact).cwiseAbs().maxCoeff();
 }
 SurfaceOperator with_kernel(const Defaults& d, SurfaceKernel kernel) {
   HeatLaplacianOptions o;
@@ -321,14 +325,17 @@ TEST(SurfaceIntrinsicKernel, TorusSpectrumErrorFallsAndTheSphereKeepsItsAccuracy
   EXPECT_LT(sphere_intrinsic, sphere_chord + 0.001);
 }
 
-// docs/accuracy.md "The heat time for eigenvalues": the estimates mu = -ln(1 - lambda t) / t
-// already take out the kernel's bias, so half the default heat time (c_t = 0.05, what --ct's help
-// suggests for spectra of smooth surfaces) keeps them as accurate on half the kernel's terms.
-// Measured at h = 0.05: sphere 0.53% at c_t = 0.1, 0.27% at 0.05; torus 0.39% and 0.44% (its
-// error sits at a floor the normals and measures set). Asserted: the sphere's error not above
-// the default's, the torus's within 0.1 point of it, both within 0.8% (the sphere's bound above);
-// the operator at most 0.6 times the nonzeros (t halves: the kernel's disc, about t's area, halves).
-TEST(SurfaceIntrinsicKernel, HalfTheHeatTimeKeepsTheEigenvaluesOnHalfTheTerms) {
+// docs/accuracy.md "Why the torus stalled": the estimates carried two biases that do not shrink
+// with h, -0.123% from the kernel's cut (its second moment's lost tail; the estimates now invert
+// the cut kernel's symbol) and +t/3 on the unit sphere from the curvature factors (1 + (2/3) t K,
+// now 1 + t K / 2: the geodesic Gaussian's own bias is -K t). Before, the sphere's mean error
+// followed t: +0.29% at c_t = 0.1 and +0.02% at 0.05 (h = 0.05, the bench's pose); now +0.00% and
+// -0.05%. Asserted on the sphere: the mean error of the 19 nonzero estimates within 0.1% at both
+// heat times and moving by less than 0.1 point between them (the noise of the h = 0.05 digitization
+// is about 0.05%); on both surfaces, half the heat time within 0.1 point of the default's worst
+// error and within 0.8%, on half the terms (t halves, at most 0.6 times the nonzeros: the
+// kernel's disc, about t's area, halves).
+TEST(SurfaceIntrinsicKernel, TheEstimatesCarryNoBiasThatFollowsTheHeatTime) {
   Sphere sphere;
   Torus torus;  // R = 1, r = 0.4
   sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
@@ -343,11 +350,18 @@ TEST(SurfaceIntrinsicKernel, HalfTheHeatTimeKeepsTheEigenvaluesOnHalfTheTerms) {
     const SurfaceOperator shorter = heat_laplacian(d.surfels, d.mu, half);
     EXPECT_NEAR(shorter.t, 0.5 * plain.t, 1e-12 * plain.t);
     EXPECT_LT(shorter.L.nonZeros(), 0.6 * plain.L.nonZeros());
-    const double at_default = worst_spectrum_error(plain, exact);
-    const double at_half = worst_spectrum_error(shorter, exact);
-    EXPECT_LT(at_half, 0.008) << "c_t = 0.1: " << at_default;
-    if (surface == &sphere) EXPECT_LE(at_half, at_default);
-    else EXPECT_LT(at_half, at_default + 0.001);
+    const Eigen::VectorXd at_default = spectrum_errors(plain, exact), at_half = spectrum_errors(shorter, exact);
+    const double worst_default = at_default.cwiseAbs().maxCoeff(), worst_half = at_half.cwiseAbs().maxCoeff();
+    std::printf("%s: worst %.3f%% (c_t = 0.1), %.3f%% (0.05); mean %+.3f%%, %+.3f%%\n", surface == &sphere ? "sphere" : "torus",
+                100 * worst_default, 100 * worst_half, 100 * at_default.mean(), 100 * at_half.mean());
+    EXPECT_LT(worst_half, 0.008);
+    EXPECT_LT(worst_default, 0.008);
+    EXPECT_LT(worst_half, worst_default + 0.001);
+    if (surface == &sphere) {
+      EXPECT_LT(std::abs(at_default.mean()), 0.001);
+      EXPECT_LT(std::abs(at_half.mean()), 0.001);
+      EXPECT_LT(std::abs(at_default.mean() - at_half.mean()), 0.001);
+    }
   }
 }
 

@@ -18,8 +18,8 @@ enum class Placement { Pointels, Linels };
 ///   d^2 = |x_j - x_i|^2 - <x_j - x_i, m>^2 + <x_j - x_i, n_j - n_i>^2 / 12,
 /// (the tangent part removes the staircase's jitter of the centres along the normal, the last
 /// term the chord's shortening on a curved surface), each weight times (1 + g_i)(1 + g_j),
-/// g = (2/3) t K with K the Gaussian curvature estimated from the kernel-weighted pair moments
-/// of positions and normals (it takes out the geodesic Gaussian's own -(4/3) K t bias). Pairs
+/// g = t K / 2 with K the Gaussian curvature estimated from the kernel-weighted pair moments
+/// of positions and normals (it takes out the geodesic Gaussian's own -K t bias). Pairs
 /// whose normals are more than 90 degrees apart keep the chord and stay out of K.
 enum class SurfaceKernel { Chord, Intrinsic };
 

@@ -28,6 +28,7 @@
 #include <Eigen/Core>
 
 #include <functional>
+#include <limits>
 #include <vector>
 
 namespace digilap {
@@ -92,8 +93,9 @@ struct SpectrumOptions {
 
 struct Spectrum {
   Eigen::VectorXd eigenvalues;   ///< ascending, the operator's own (raw) eigenvalues lambda
-  /// Laplace-Beltrami estimates -ln(1 - lambda t) / t (see laplace_beltrami_eigenvalues()),
-  /// filled by the solvers that know t (from an operator); +infinity where lambda t >= 1.
+  /// Laplace-Beltrami estimates, about -ln(1 - lambda t) / t (laplace_beltrami_eigenvalues()
+  /// with the operator's cut), filled by the solvers that know t (from an operator); +infinity
+  /// where lambda t reaches the kernel's mass (1 without a cut).
   Eigen::VectorXd laplace_beltrami;
   /// How many eigenvalues have lambda t >= 1, where no estimate exists (0 when all are defined).
   int undefined_estimates = 0;
@@ -125,13 +127,32 @@ Spectrum smallest_eigenpairs(const HeatOperator& op, const SpectrumOptions& opti
 /// Euclidean distance), or as smallest_eigenpairs(op).
 std::vector<Spectrum> smallest_eigenpairs_per_part(const HeatOperator& op, const SpectrumOptions& options = {});
 
-/// Undoes the heat kernel's bias on eigenvalues: the heat-kernel operator with time t has
-/// eigenvalues lambda = (1 - exp(-mu t)) / t where the Laplace-Beltrami operator has mu (SPEC
-/// §5; exact on a closed curve's spectrum, to 2e-4 on digital contours), so mu = -ln(1 - lambda
-/// t) / t. Undefined for lambda t >= 1 (the operator's spectrum stops at 1 / t): those entries
-/// are +infinity, and `undefined` (if given) receives their number. Throws digilap::Error for t
-/// not > 0 and finite.
-Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined = nullptr);
+/// The kernel whose symbol the Laplace-Beltrami estimates invert: the heat kernel on a manifold
+/// of `dimension` (1: contours, 2: surfaces) cut at distance k sqrt(t), as every operator of the
+/// library is. k = infinity (the default) is the whole Gaussian, whose symbol does not depend on
+/// the dimension.
+struct KernelCut {
+  int dimension = 2;
+  double k = std::numeric_limits<double>::infinity();
+};
+
+/// The cut of an operator's kernel: its dimension, and k = cut / sqrt(t).
+KernelCut kernel_cut_of(const HeatOperator& op);
+
+/// Undoes the heat kernel's bias on eigenvalues. On a flat manifold the heat-kernel operator
+/// with time t has the eigenvalue lambda = F(mu t) / t where the Laplace-Beltrami operator has
+/// mu, F(a) = the kernel's mass times (1 - e^(-i omega.y)) averaged, omega^2 = mu (SPEC §5): the
+/// whole Gaussian has F(a) = 1 - exp(-a), so mu = -ln(1 - lambda t) / t. A kernel cut at
+/// k sqrt(t) has lost the tail of its second moment, (1 + k^2/4) exp(-k^2/4) of it in two
+/// dimensions (0.12% at k = 6: every eigenvalue low by that much, whatever h and t, the
+/// floor docs/accuracy.md found on the torus), erfc(k/2) + k exp(-k^2/4) / sqrt(pi) in one
+/// (0.04%); the estimates invert the cut kernel's F instead (by Newton's method from the whole
+/// Gaussian's answer, F's tail by quadrature), which gives mu back to rounding on a flat torus.
+/// Undefined where lambda t reaches the kernel's mass (the operator's spectrum stops there: 1 /
+/// t without a cut): those entries are +infinity, and `undefined` (if given) receives their
+/// number. Throws digilap::Error for t not > 0 and finite, a dimension not 1 or 2, or k not > 0.
+Eigen::VectorXd laplace_beltrami_eigenvalues(const Eigen::VectorXd& eigenvalues, double t, int* undefined = nullptr,
+                                             const KernelCut& kernel = {});
 
 /// The heat kernel signature (Sun, Ovsjanikov, Guibas 2009) of every row at each time tau:
 /// HKS(x, tau) = sum_k exp(-lambda_k tau) phi_k(x)^2 over the spectrum's M-orthonormal pairs,

@@ -71,6 +71,7 @@ public:
   double length_scale = 0;                  ///< l (measured or given)
   double normal_radius = 0;                 ///< R
   std::vector<double> surface_t;            ///< heat time of each kept surface (numbered by first surfel)
+  double k = 6;                             ///< the kernel's cut factor: each surface's cut at k sqrt(its t)
   std::vector<std::int64_t> surface_size;   ///< surfels of each kept surface
   std::int64_t clamped = 0;                 ///< surfels of zero area, all ranks
   std::size_t dropped_surfaces = 0;

@@ -6,7 +6,7 @@
 // over the surfel centres x. With SurfaceKernel::Chord (SPEC §7), d_ij = |x_i - x_j| and c = 1.
 // With SurfaceKernel::Intrinsic (the default since issue 23), d_ij follows the surface with the
 // measures' normals (the tangent-plane chord plus the geodesic term, core/heat_kernel.hpp) and
-// c_i = 1 + (2/3) t K_i with K_i the Gaussian curvature estimated from the same neighbours: the
+// c_i = 1 + t K_i / 2 with K_i the Gaussian curvature estimated from the same neighbours: the
 // chord's curvature bias and the staircase's jitter are gone (torus at h = 0.025: 0.33% worst
 // eigenvalue error against 2.83%, docs/accuracy.md). The neighbours are those within the cut
 // along the chord in both. L approximates +Laplace-Beltrami (negative semidefinite), A = M L is
