@@ -1,14 +1,15 @@
 // Internal: the per-surfel factors of SurfaceKernel::Intrinsic (core/heat_kernel.hpp), shared by
 // the assembled operator, the matrix-free products and the distributed rows.
 //
-// The Gaussian of the geodesic distance has its own O(t) bias on a curved surface, K t Delta f
-// (K the Gaussian curvature) to first order, two terms of the mean of f over a geodesic circle
-// of radius rho (Gray and Willmore: f + rho^2 Delta f / 4 + rho^4 (Delta^2 f + (2/3) K Delta f) / 64
-// on a surface): the circles are short by K rho^2 / 6, which takes (4/3) K t off the second
-// moment, and the rho^4 term gives (1/3) K t back. So the sphere's l(l+1) comes out low by a
-// factor 1 - t (the kernel's symbol on the unit sphere, computed by quadrature: -0.995 t to
+// The Gaussian of the geodesic distance d has its own O(t) bias on a curved surface. The heat
+// kernel is p_t = (4 pi t)^(-1) exp(-d^2 / 4t) (1 + K_m d^2 / 12 + t (K_i + K_j) / 6 + ...) (the
+// Van Vleck-Morette determinant, K_m the Gaussian curvature at the pair's midpoint, and the first
+// heat invariant K / 3), and p_t's operator is (e^(t Delta) - 1) / t exactly; so the Gaussian
+// alone gives that minus t div(K grad f) to first order (K Delta f and grad K . grad f both): on
+// the unit sphere every eigenvalue low by a factor 1 - t (a quadrature of its symbol: -0.995 t to
 // -1.002 t for l = 1 ... 4 at t = 1e-3; docs/accuracy.md). Each weight w_ij is multiplied by
-// (1 + g_i)(1 + g_j), g = t K / 2, to first order 1 + t (K_i + K_j) / 2, and written as a
+// (1 + g_i)(1 + g_j), g = t K / 2, to first order 1 + t (K_i + K_j) / 2, which adds back
+// t div(K grad f), both parts (the symmetric factor's gradient is half its diagonal's), written as a
 // diagonal scaling: the weights' measures mu_i (1 + g_i), the mass matrix unchanged.
 //
 // K comes from the positions and normals alone, as kernel-weighted moments over each surfel's
