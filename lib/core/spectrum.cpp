@@ -12,6 +12,7 @@
 #include <Spectra/SymGEigsShiftSolver.h>
 #include <omp.h>
 
+#include <array>
 #include <cmath>
 #include <tuple>
 #include <utility>
@@ -101,6 +102,28 @@ private:
 
 namespace {
 
+// The 64-point Gauss-Legendre rule on [-1, 1] (Newton on P_64 from Chebyshev's guesses), made once.
+const std::array<std::pair<double, double>, 64>& gauss_legendre_64() {
+  static const std::array<std::pair<double, double>, 64> rule = [] {
+    constexpr int n = 64;
+    std::array<std::pair<double, double>, n> nodes{};
+    for (int i = 0; i < n; ++i) {
+      double x = std::cos(kPi * (i + 0.75) / (n + 0.5)), derivative = 1;
+      for (int iteration = 0; iteration < 100; ++iteration) {
+        double p0 = 1, p1 = x;
+        for (int m = 2; m <= n; ++m) std::tie(p0, p1) = std::make_pair(p1, ((2 * m - 1) * x * p1 - (m - 1) * p0) / m);
+        derivative = n * (x * p1 - p0) / (x * x - 1);
+        const double step = p1 / derivative;
+        x -= step;
+        if (std::abs(step) < 1e-16) break;
+      }
+      nodes[static_cast<std::size_t>(i)] = {x, 2 / ((1 - x * x) * derivative * derivative)};
+    }
+    return nodes;
+  }();
+  return rule;
+}
+
 // The cut kernel's F(a) = (1 - e^(-a)) - tail(a), tail(a) the part of the whole Gaussian's
 // average of (1 - e^(-i omega.y)) beyond the cut, a = mu t. In units of 2 sqrt(t) (r = |y| /
 // 2 sqrt(t), the cut at r = k / 2) the kernel's radial density is 2 r exp(-r^2) with the angular
@@ -113,21 +136,10 @@ class CutKernelSymbol {
 public:
   explicit CutKernelSymbol(const KernelCut& kernel) : dimension_(kernel.dimension), cut_(kernel.k / 2) {
     if (std::isinf(cut_)) return;
-    // Gauss-Legendre nodes on [-1, 1] (Newton on P_n from Chebyshev's guesses), mapped to [cut, cut + 6].
-    constexpr int n = 64;
-    for (int i = 0; i < n; ++i) {
-      double x = std::cos(kPi * (i + 0.75) / (n + 0.5)), derivative = 1;
-      for (int iteration = 0; iteration < 100; ++iteration) {
-        double p0 = 1, p1 = x;
-        for (int m = 2; m <= n; ++m) std::tie(p0, p1) = std::make_pair(p1, ((2 * m - 1) * x * p1 - (m - 1) * p0) / m);
-        derivative = n * (x * p1 - p0) / (x * x - 1);
-        const double step = p1 / derivative;
-        x -= step;
-        if (std::abs(step) < 1e-16) break;
-      }
-      const double r = cut_ + 3 * (x + 1), weight = 3 * 2 / ((1 - x * x) * derivative * derivative);
+    for (const auto& [x, weight] : gauss_legendre_64()) {  // mapped to [cut, cut + 6]
+      const double r = cut_ + 3 * (x + 1);
       nodes_.push_back(r);
-      weights_.push_back(weight * (dimension_ == 2 ? 2 * r * std::exp(-r * r) : 2 / std::sqrt(kPi) * std::exp(-r * r)));
+      weights_.push_back(3 * weight * (dimension_ == 2 ? 2 * r * std::exp(-r * r) : 2 / std::sqrt(kPi) * std::exp(-r * r)));
     }
   }
   bool whole() const { return nodes_.empty(); }
