@@ -97,7 +97,8 @@ struct Spectrum {
   /// with the operator's cut), filled by the solvers that know t (from an operator); +infinity
   /// where lambda t reaches the kernel's mass (1 without a cut).
   Eigen::VectorXd laplace_beltrami;
-  /// How many eigenvalues have lambda t >= 1, where no estimate exists (0 when all are defined).
+  /// How many eigenvalues have lambda t at or above the kernel's mass, where no estimate exists
+  /// (0 when all are defined).
   int undefined_estimates = 0;
   Eigen::MatrixXd eigenvectors;  ///< one M-normalized column per eigenvalue
   /// Rows of zero mass: off the support of mu, where the problem was solved (see above).
@@ -147,7 +148,8 @@ KernelCut kernel_cut_of(const HeatOperator& op);
 /// dimensions (0.12% at k = 6: every eigenvalue low by that much, whatever h and t, the
 /// floor docs/accuracy.md found on the torus), erfc(k/2) + k exp(-k^2/4) / sqrt(pi) in one
 /// (0.04%); the estimates invert the cut kernel's F instead (by Newton's method from the whole
-/// Gaussian's answer, F's tail by quadrature), which gives mu back to rounding on a flat torus.
+/// Gaussian's answer, F's tail by quadrature): mu back to rounding from the flat cut kernel's
+/// symbol (tests/core/test_spectrum.cpp integrates that symbol independently).
 /// Undefined where lambda t reaches the kernel's mass (the operator's spectrum stops there: 1 /
 /// t without a cut): those entries are +infinity, and `undefined` (if given) receives their
 /// number. Throws digilap::Error for t not > 0 and finite, a dimension not 1 or 2, or k not > 0.
