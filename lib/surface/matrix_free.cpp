@@ -9,6 +9,7 @@
 #include "core/lobpcg.hpp"
 #include "core/spectrum_parts.hpp"
 #include "core/union_find.hpp"
+#include "coarse_spread.hpp"
 #include "intrinsic_kernel.hpp"
 #include "surfel_grid.hpp"
 #include "surfel_tiles.hpp"
@@ -642,7 +643,8 @@ private:
 // their summed area and mean normal. It is a quadrature of the same heat operator on about a
 // quarter of the points with a twentieth of the pairs, and its eigenvalues are the surfels' own
 // within 0.1% (a torus at h = 0.025). Its `block` smallest eigenvectors, the guards' too, spread
-// back to the surfels (each takes its aggregate's value), are the start (only the `count` wanted
+// back to the surfels (smoothly, coarse_spread.hpp: one iteration fewer than each surfel taking
+// its aggregate's value, on a torus at h = 0.025 and 0.0125), are the start (only the `count` wanted
 // ones converge to kCoarseTolerance, the others need not, as in the surfels' problem: 7 coarse
 // iterations instead of 9 on a sphere at h = 0.0125, the same fine ones): LOBPCG's iterations
 // are set by how far the start is from the answer (docs/benchmarks.md: 16-17 iterations from a
@@ -729,13 +731,16 @@ Eigen::MatrixXd coarse_start(const MatrixFreeSurfaceOperator& op, std::size_t p,
   const Eigen::VectorXd& values = result.values;  // the `count` wanted, then the rest of the coarse block
   // The coarse eigenvalues (the guards' too) show the clusters: the block ends at a gap.
   const Eigen::Index columns = digilap::detail::block_at_a_gap(values, count, block, max_block);
-  // The aggregates' eigenvectors u = S y, each surfel taking its aggregate's, in the symmetric
+  // The aggregates' eigenvectors u = S y, spread smoothly onto the surfels, in the symmetric
   // form M^(1/2) u of the surfels' problem.
-  Eigen::MatrixXd start(n, columns);
+  Eigen::MatrixX3d at(n, 3), at_normal(n, 3);
   for (Eigen::Index k = 0; k < n; ++k) {
-    const Eigen::Index a = aggregate[static_cast<std::size_t>(k)];
-    start.row(k) = std::sqrt(mass[k]) * s[a] * result.vectors.row(a).head(columns);
+    const Eigen::Index r = support[static_cast<std::size_t>(k)];
+    at.row(k) = op.positions().row(first + r), at_normal.row(k) = normal.row(r);
   }
+  Eigen::MatrixXd start = detail::spread_smoothly(s.asDiagonal() * result.vectors.leftCols(columns), positions, normals, at, at_normal,
+                                                  aggregate, cell, fine.intrinsic());
+  for (Eigen::Index k = 0; k < n; ++k) start.row(k) *= std::sqrt(mass[k]);
   return start;
 }
 

@@ -12,6 +12,7 @@
 
 #include "on_threads.hpp"
 #include "support.hpp"
+#include "surface/coarse_spread.hpp"
 
 #include <gtest/gtest.h>
 #include <omp.h>
@@ -448,4 +449,89 @@ TEST(MatrixFreeSurface, ThinRealLabelsConvergePreconditioned) {
     for (Eigen::Index k = 0; k < 50; ++k)
       EXPECT_NEAR(products.eigenvalues[k], stored.eigenvalues[k], 1e-9 * stored.eigenvalues[49]) << name << " " << k;
   }
+}
+
+namespace {
+// A flat sheet of n x n surfels of side h at height z (normal +z or -z), in aggregates of 2 x 2
+// (cells of 2 h) at their centroids, numbered from `first_aggregate`.
+struct Sheet {
+  Eigen::MatrixX3d points, point_normals, centres, centre_normals;
+  std::vector<int> own;
+};
+Sheet sheet(int n, double h, double z, double normal_z) {
+  Sheet s;
+  s.points.resize(n * n, 3), s.point_normals.resize(n * n, 3);
+  s.centres = Eigen::MatrixX3d::Zero((n / 2) * (n / 2), 3), s.centre_normals.resize((n / 2) * (n / 2), 3);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const int k = i * n + j, a = (i / 2) * (n / 2) + j / 2;
+      s.points.row(k) << (i + 0.5) * h, (j + 0.5) * h, z;
+      s.point_normals.row(k) << 0, 0, normal_z;
+      s.own.push_back(a);
+      s.centres.row(a) += s.points.row(k) / 4;
+      s.centre_normals.row(a) << 0, 0, normal_z;
+    }
+  return s;
+}
+}  // namespace
+
+TEST(MatrixFreeSurface, CoarseStartSpreadsTheAggregatesValuesWithoutSteps) {
+  // detail::spread_smoothly, which carries the coarse problem's eigenvectors to the surfels
+  // (coarse_start). Each surfel taking its aggregate's value puts steps at the aggregates'
+  // borders: between two neighbouring surfels the difference is 0 inside an aggregate and two
+  // steps' worth across a border, an error of |grad f| h either way against the smooth f. That
+  // error, at the top of the heat operator's spectrum, is what the spread removes. On a flat
+  // sheet (h = 0.05, 40 x 40 surfels), f = sin 2x + cos 3y on the aggregates' centres:
+  const double h = 0.05;
+  const Sheet s = sheet(40, h, 0, 1);
+  auto f = [](double x, double y) { return std::sin(2 * x) + std::cos(3 * y); };
+  Eigen::MatrixXd values(s.centres.rows(), 2);
+  for (Eigen::Index a = 0; a < s.centres.rows(); ++a) values.row(a) << f(s.centres(a, 0), s.centres(a, 1)), 1.0;
+  const Eigen::MatrixXd spread = on_threads(1, [&] {
+    return surface::detail::spread_smoothly(values, s.centres, s.centre_normals, s.points, s.point_normals, s.own, 2 * h, true);
+  });
+  const Eigen::MatrixXd on_two = on_threads(2, [&] {
+    return surface::detail::spread_smoothly(values, s.centres, s.centre_normals, s.points, s.point_normals, s.own, 2 * h, true);
+  });
+  ASSERT_EQ(spread.rows(), s.points.rows());
+  EXPECT_EQ(std::memcmp(spread.data(), on_two.data(), sizeof(double) * static_cast<std::size_t>(spread.size())), 0);
+  // Constants are kept exactly: the weights and the weighted ones are the same sums.
+  EXPECT_TRUE((spread.col(1).array() == 1.0).all());
+  // The differences between neighbours along x, away from the sheet's edges (3 cells, past the
+  // reach of 1.5): against f's own, the steps' error is about |df/dx| h (up to 2 h = 0.1), the
+  // spread's a small part of it (a smooth average of a smooth f: O(width^2) relative to f's).
+  double steps = 0, smooth = 0;
+  for (int i = 6; i + 1 < 34; ++i)
+    for (int j = 6; j < 34; ++j) {
+      const int k = i * 40 + j, next = k + 40;
+      const double exact = f(s.points(next, 0), s.points(next, 1)) - f(s.points(k, 0), s.points(k, 1));
+      steps = std::max(steps, std::abs(values(s.own[next], 0) - values(s.own[k], 0) - exact));
+      smooth = std::max(smooth, std::abs(spread(next, 0) - spread(k, 0) - exact));
+    }
+  EXPECT_GT(steps, 0.05);        // the premise: steps of about |df/dx| h
+  EXPECT_LT(smooth, 0.2 * steps);
+}
+
+TEST(MatrixFreeSurface, CoarseStartSpreadKeepsTheSidesOfAThinWallApart) {
+  // Two sheets one voxel apart, their normals opposite (the two sides of a wall one voxel
+  // thick): +1 on one side and -1 on the other stay +1 and -1 exactly with the sides apart; the
+  // same spread without them (the Euclidean kernel's, which does not see the sides) mixes them,
+  // so the check could fail.
+  const double h = 0.05;
+  const Sheet below = sheet(20, h, 0, -1), above = sheet(20, h, h, 1);
+  const Eigen::Index m = below.centres.rows(), n = below.points.rows();
+  Eigen::MatrixX3d centres(2 * m, 3), centre_normals(2 * m, 3), points(2 * n, 3), point_normals(2 * n, 3);
+  centres << below.centres, above.centres;
+  centre_normals << below.centre_normals, above.centre_normals;
+  points << below.points, above.points;
+  point_normals << below.point_normals, above.point_normals;
+  std::vector<int> own = below.own;
+  for (int a : above.own) own.push_back(a + static_cast<int>(m));
+  Eigen::MatrixXd values(2 * m, 1);
+  values << Eigen::VectorXd::Constant(m, -1), Eigen::VectorXd::Constant(m, 1);
+  const Eigen::MatrixXd apart = surface::detail::spread_smoothly(values, centres, centre_normals, points, point_normals, own, 2 * h, true);
+  EXPECT_TRUE((apart.col(0).head(n).array() == -1.0).all());
+  EXPECT_TRUE((apart.col(0).tail(n).array() == 1.0).all());
+  const Eigen::MatrixXd mixed = surface::detail::spread_smoothly(values, centres, centre_normals, points, point_normals, own, 2 * h, false);
+  EXPECT_LT(mixed.col(0).cwiseAbs().maxCoeff(), 0.9);
 }
