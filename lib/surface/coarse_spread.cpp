@@ -11,7 +11,7 @@ Eigen::MatrixXd spread_smoothly(const Eigen::MatrixXd& values, const Eigen::Matr
                                 double cell, bool by_side) {
   // Reach and width in cells: 1.5 and 0.5 take about 7 aggregates a point (the Gaussian is
   // 1% at the reach); the sphere and torus at h = 0.025 converged alike with 2 and 2.5 cells
-  // or a width of 0.7, one iteration more with 1 (docs/benchmarks.md).
+  // or a width of 0.7; the sphere took one iteration more with a width of 1 (docs/benchmarks.md).
   constexpr double kReach = 1.5, kWidth = 0.5, kSameSide = 0.5;  // cosine of 60 degrees
   const Eigen::Index n = points.rows();
   const double reach = kReach * cell, inv_2w2 = 1 / (2 * (kWidth * cell) * (kWidth * cell));
