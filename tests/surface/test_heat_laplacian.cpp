@@ -106,10 +106,10 @@ TEST(Surface, BitwiseIdenticalForOneAndTwoThreads) {
 
 // The sphere's spectrum through the 2D solvers (A, mass), and its heat flow. Reference
 // (issue 13): at h = 0.05, exact normals, t = 0.1 h^(2/3), l = 1..3 raw within 7.3% of l(l+1),
-// within 0.8% after lambda -> -ln(1 - lambda t) / t (now the cut kernel's symbol inverted). Here at h = 0.1 (the fine step is the next
-// test), where we measure raw 12.1% and corrected 1.3%: asserted within 15% and 2%, the
-// 3 + 5 + 7 copies within 2% of each other. Both solvers (the factorization and LOBPCG on
-// products, the surfaces' method) give the same pairs.
+// within 0.8% after lambda -> -ln(1 - lambda t) / t (now the cut kernel's symbol inverted).
+// Here at h = 0.1 (the fine step is the next test), where we measure raw 12.1% and corrected
+// 1.3%: asserted within 15% and 2%, the 3 + 5 + 7 copies within 2% of each other. Both solvers
+// (the factorization and LOBPCG on products, the surfaces' method) give the same pairs.
 TEST(Surface, SphereSpectrumAndHeatFlow) {
   Sphere sphere;
   sphere.set_pose(kCentre, Eigen::Matrix3d::Identity());
